@@ -1,0 +1,99 @@
+//! Typed, validated contents of a deck (see inputs/README.md for every key).
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace gen4d {
+
+using Vec3d = std::array<double, 3>;
+
+//! Axis-aligned box region [lo, hi] in metres.
+struct BoxRegion {
+  Vec3d lo{0, 0, 0};
+  Vec3d hi{0, 0, 0};
+  bool contains(const Vec3d& p) const {
+    for (int d = 0; d < 3; ++d)
+      if (p[d] < lo[d] || p[d] > hi[d]) return false;
+    return true;
+  }
+};
+
+//! One solid in the union that makes up the object.
+struct GeometryConfig {
+  std::string type;  //!< "box" | "sphere" | "capsule" | "mesh" | "vdb"
+  // box
+  Vec3d lo{0, 0, 0}, hi{0, 0, 0};
+  // sphere
+  Vec3d center{0, 0, 0};
+  double radius = 0;
+  // capsule: segment a-b with radius
+  Vec3d a{0, 0, 0}, b{0, 0, 0};
+  // mesh / vdb: file path (resolved relative to the deck's folder), transform
+  std::string file;
+  std::string grid;  //!< vdb grid name; empty = first level-set grid
+  double scale = 1.0;
+  Vec3d translate{0, 0, 0};
+};
+
+struct MaterialConfig {
+  std::string model = "corotated";  //!< registered material name
+  std::string target = "analytic";  //!< "analytic" (p = F - P/k) | "arap" (p = R)
+  double youngs_modulus = 0;        //!< Pa
+  double poisson_ratio = 0;         //!< (-1, 0.5)
+  double density = 0;               //!< kg/m^3
+};
+
+struct SolverConfig {
+  std::string relaxation = "jacobi";  //!< "jacobi" | "cg"
+  double jacobi_omega = 0.67;         //!< damping of Jacobi sweeps, (0, 1]
+  int max_sweeps = 400;               //!< per outer loop
+  double inner_tolerance = 1e-6;      //!< relative residual of the global step
+  int subspace_modes = 18;            //!< K low-frequency modes; 0 disables
+  int max_outer = 10;                 //!< RNN-1 loops per step
+  double outer_tolerance = 1e-5;      //!< relative change of x between loops
+  double accuracy_tolerance = 1e-3;   //!< relative true residual after the loops
+  int max_extra_outer = 20;           //!< extra loops allowed by the accuracy check
+};
+
+struct FixedConfig {
+  BoxRegion region;  //!< nodes inside are held at their rest positions
+};
+
+struct ForceConfig {
+  BoxRegion region;         //!< nodes inside share the force, by mass
+  Vec3d force{0, 0, 0};     //!< total force in newtons
+  double start = 0;         //!< s
+  double end = 1e300;       //!< s (exclusive)
+};
+
+struct OutputConfig {
+  std::string dir = "gen4d-out";
+  double frame_interval = 0;   //!< s; 0 = every step
+  int checkpoint_every = 0;    //!< steps; 0 = only at the end and on signals
+  int checkpoint_keep = 2;
+  double progress_interval = 2.0;  //!< wall seconds between progress lines
+};
+
+struct Config {
+  // [simulation]
+  std::string name = "gen4d";
+  double dt = 0;          //!< s
+  double end_time = 0;    //!< s
+  Vec3d gravity{0, 0, -9.81};
+  // [domain]
+  double voxel_size = 0;  //!< m
+  int padding = 1;        //!< empty voxels around the object's bounds
+  std::vector<GeometryConfig> geometry;
+  MaterialConfig material;
+  SolverConfig solver;
+  std::vector<FixedConfig> fixed;
+  std::vector<ForceConfig> forces;
+  OutputConfig output;
+
+  std::string source;     //!< deck path ("<embedded>" for built-in text)
+  std::string text;       //!< final deck text (TOML, overrides applied); stored in outputs
+};
+
+}  // namespace gen4d

@@ -1,0 +1,242 @@
+#include "elastogen/Elastodynamics.hpp"
+
+#include <cmath>
+
+#include "core/Log.hpp"
+#include "materials/Arap.hpp"
+#include "materials/FixedCorotated.hpp"
+
+namespace gen4d::elastogen {
+
+namespace {
+template <class F>
+void for_owned(const Box& O, const Box& G, F&& f) {
+  for (long k = O.start[2]; k < O.start[2] + O.count[2]; ++k)
+    for (long j = O.start[1]; j < O.start[1] + O.count[1]; ++j)
+      for (long i = O.start[0]; i < O.start[0] + O.count[0]; ++i) f(G.index(i, j, k), i, j, k);
+}
+
+materials::Mat3 to_mat3(const double* F) {
+  materials::Mat3 m;
+  for (int a = 0; a < 9; ++a) m.a[a] = F[a];
+  return m;
+}
+}  // namespace
+
+Elastodynamics::Elastodynamics(VoxelSystem& sys, const Config& cfg, PhaseTimers& timers)
+    : sys_(sys),
+      cfg_(cfg),
+      timers_(timers),
+      dt_(cfg.dt),
+      mu_(cfg.material.youngs_modulus / (2.0 * (1.0 + cfg.material.poisson_ratio))),
+      lambda_(cfg.material.youngs_modulus * cfg.material.poisson_ratio /
+              ((1.0 + cfg.material.poisson_ratio) * (1.0 - 2.0 * cfg.material.poisson_ratio))),
+      k_(cfg.material.target == "arap"
+             ? 2.0 * mu_
+             : materials::FixedCorotated{mu_, lambda_}.projection_stiffness()),
+      arap_(cfg.material.target == "arap"),
+      solver_(sys, cfg.solver, k_, cfg.dt, timers) {
+  const std::size_t n = 3 * sys_.ghosted().size();
+  for (auto* a : {&x_, &v_, &xn_, &y_, &r_, &delta_, &fext_, &fint_}) a->assign(n, 0.0);
+  // Applied forces are shared among a region's nodes by mass.
+  std::vector<parallel::ExactSum> local(cfg_.forces.size());
+  const auto& m = sys_.mass();
+  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t nn, long i, long j, long k) {
+    if (!sys_.free_mask()[nn]) return;
+    const auto p = sys_.rest_position(i, j, k);
+    for (std::size_t f = 0; f < cfg_.forces.size(); ++f)
+      if (cfg_.forces[f].region.contains({p[0], p[1], p[2]})) local[f].add(m[nn]);
+  });
+  force_region_mass_.assign(cfg_.forces.size(), 0.0);
+  if (!local.empty()) solver_.reducer().sum(local.data(), force_region_mass_.data(), local.size());
+  for (std::size_t f = 0; f < cfg_.forces.size(); ++f)
+    if (force_region_mass_[f] == 0.0)
+      log::warn("force region {} contains no free node of the object; it has no effect", f);
+  reset_to_rest();
+}
+
+void Elastodynamics::reset_to_rest() {
+  const Box& G = sys_.ghosted();
+  for (long k = G.start[2]; k < G.start[2] + G.count[2]; ++k)
+    for (long j = G.start[1]; j < G.start[1] + G.count[1]; ++j)
+      for (long i = G.start[0]; i < G.start[0] + G.count[0]; ++i) {
+        const std::size_t n = G.index(i, j, k);
+        const auto p = sys_.rest_position(i, j, k);
+        for (int d = 0; d < 3; ++d) {
+          x_[3 * n + d] = p[d];
+          v_[3 * n + d] = 0.0;
+        }
+      }
+}
+
+void Elastodynamics::sync_ghosts() {
+  PhaseTimers::Scope t(timers_, "halo");
+  solver_.halo().gather(x_.data());
+  solver_.halo().gather(v_.data());
+}
+
+void Elastodynamics::external_forces(double t, std::vector<double>& f) const {
+  const auto& m = sys_.mass();
+  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long i, long j, long k) {
+    for (int d = 0; d < 3; ++d) f[3 * n + d] = m[n] * cfg_.gravity[d];
+    if (!sys_.free_mask()[n]) return;
+    const auto p = sys_.rest_position(i, j, k);
+    for (std::size_t r = 0; r < cfg_.forces.size(); ++r) {
+      const ForceConfig& fc = cfg_.forces[r];
+      if (t < fc.start || t >= fc.end || force_region_mass_[r] == 0.0) continue;
+      if (!fc.region.contains({p[0], p[1], p[2]})) continue;
+      for (int d = 0; d < 3; ++d) f[3 * n + d] += fc.force[d] * m[n] / force_region_mass_[r];
+    }
+  });
+}
+
+double Elastodynamics::internal_forces(const std::vector<double>& x, std::vector<double>& f) {
+  // The runtime choice of local model picks one instantiation of the stencil loop.
+  if (arap_) {
+    const materials::Arap mat{k_};
+    return sys_.internal_forces(
+        [&](const double* F, double* P) {
+          const auto Fm = to_mat3(F);
+          const auto Pm = mat.pk1(Fm);
+          for (int a = 0; a < 9; ++a) P[a] = Pm.a[a];
+          return mat.energy(Fm);
+        },
+        x.data(), f.data());
+  }
+  const materials::FixedCorotated mat{mu_, lambda_};
+  return sys_.internal_forces(
+      [&](const double* F, double* P) {
+        const auto Fm = to_mat3(F);
+        const auto Pm = mat.pk1(Fm);
+        for (int a = 0; a < 9; ++a) P[a] = Pm.a[a];
+        return mat.energy(Fm);
+      },
+      x.data(), f.data());
+}
+
+double Elastodynamics::residual(const std::vector<double>& y, std::vector<double>& r) {
+  double e;
+  {
+    PhaseTimers::Scope t(timers_, "stencil+svd");
+    e = internal_forces(x_, fint_);
+  }
+  const auto& m = sys_.mass();
+  const double inv_dt2 = 1.0 / (dt_ * dt_);
+  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+    for (int d = 0; d < 3; ++d)
+      r[3 * n + d] = sys_.free_mask()[n]
+                         ? m[n] * (y[3 * n + d] - x_[3 * n + d]) * inv_dt2 + fint_[3 * n + d]
+                         : 0.0;
+  });
+  return e;
+}
+
+double Elastodynamics::owned_norm(const std::vector<double>& a, const std::vector<double>* b) {
+  parallel::ExactSum s;
+  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+    if (!sys_.free_mask()[n]) return;
+    for (int d = 0; d < 3; ++d) {
+      const double v = b ? a[3 * n + d] - (*b)[3 * n + d] : a[3 * n + d];
+      s.add(v * v);
+    }
+  });
+  double g = 0;
+  PhaseTimers::Scope t(timers_, "reduction");
+  solver_.reducer().sum(&s, &g, 1);
+  return std::sqrt(g);
+}
+
+StepStats Elastodynamics::step(double t) {
+  const auto& m = sys_.mass();
+  const auto& free = sys_.free_mask();
+  external_forces(t, fext_);
+  xn_ = x_;
+  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+    for (int d = 0; d < 3; ++d) {
+      const std::size_t q = 3 * n + d;
+      y_[q] = free[n] ? xn_[q] + dt_ * v_[q] + dt_ * dt_ * fext_[q] / m[n] : xn_[q];
+      x_[q] = y_[q];  // inertial prediction as the first iterate
+    }
+  });
+  {
+    PhaseTimers::Scope tt(timers_, "halo");
+    solver_.halo().gather(x_.data());
+  }
+  StepStats st;
+  const auto& scfg = cfg_.solver;
+  auto outer_loop = [&]() {
+    const InnerStats in = solver_.solve(r_, delta_);
+    st.sweeps += in.sweeps;
+    for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+      for (int d = 0; d < 3; ++d) x_[3 * n + d] += delta_[3 * n + d];
+    });
+    {
+      PhaseTimers::Scope tt(timers_, "halo");
+      solver_.halo().gather(x_.data());
+    }
+    ++st.outer;
+    const double dn = owned_norm(delta_), sn = owned_norm(x_, &xn_);
+    st.relative_change = dn > 0.0 ? dn / sn : 0.0;
+    residual(y_, r_);
+  };
+  // RNN-1: local targets from the latest x, then the global relaxation, until x settles.
+  residual(y_, r_);
+  while (st.outer < scfg.max_outer) {
+    outer_loop();
+    if (st.relative_change < scfg.outer_tolerance) break;
+  }
+  // Accuracy check on the true implicit-Euler residual (seed App. G), bounded extra loops.
+  const double fext_norm = owned_norm(fext_);
+  auto accuracy = [&]() {
+    parallel::ExactSum s;
+    for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+      if (!free[n]) return;
+      for (int d = 0; d < 3; ++d) {
+        const double a = m[n] * (x_[3 * n + d] - y_[3 * n + d]) / (dt_ * dt_);
+        s.add(a * a);
+      }
+    });
+    double inertia2 = 0;
+    solver_.reducer().sum(&s, &inertia2, 1);
+    const double denom = std::sqrt(inertia2) + fext_norm;
+    const double rn = owned_norm(r_);
+    return denom > 0.0 ? rn / denom : rn;
+  };
+  st.accuracy = accuracy();
+  while (st.accuracy > scfg.accuracy_tolerance && st.extra < scfg.max_extra_outer) {
+    outer_loop();
+    ++st.extra;
+    st.accuracy = accuracy();
+  }
+  st.accurate = st.accuracy <= scfg.accuracy_tolerance;
+  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+    for (int d = 0; d < 3; ++d) v_[3 * n + d] = (x_[3 * n + d] - xn_[3 * n + d]) / dt_;
+  });
+  {
+    PhaseTimers::Scope tt(timers_, "halo");
+    solver_.halo().gather(v_.data());
+  }
+  return st;
+}
+
+Elastodynamics::Energy Elastodynamics::energy() {
+  Energy e;
+  const double el = internal_forces(x_, fint_);
+  parallel::ExactSum s[3];
+  s[1].add(el);
+  const auto& m = sys_.mass();
+  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+    for (int d = 0; d < 3; ++d) {
+      s[0].add(0.5 * m[n] * v_[3 * n + d] * v_[3 * n + d]);
+      s[2].add(-m[n] * cfg_.gravity[d] * x_[3 * n + d]);
+    }
+  });
+  double g[3];
+  solver_.reducer().sum(s, g, 3);
+  e.kinetic = g[0];
+  e.elastic = g[1];
+  e.gravity = g[2];
+  return e;
+}
+
+}  // namespace gen4d::elastogen

@@ -1,0 +1,73 @@
+//! ElastoGen time stepping: implicit Euler as a nested recurrent loop (RNN-1 outer loop of
+//! local targets, RNN-2 global relaxation) followed by the true-residual accuracy check.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "core/Config.hpp"
+#include "core/Timers.hpp"
+#include "elastogen/GlobalSolver.hpp"
+#include "elastogen/VoxelSystem.hpp"
+
+namespace gen4d::elastogen {
+
+struct StepStats {
+  int outer = 0;              //!< RNN-1 loops run, extra ones included
+  int extra = 0;              //!< loops added by the accuracy check
+  long sweeps = 0;            //!< RNN-2 sweeps summed over the loops
+  double relative_change = 0; //!< ||delta|| / ||x - x^n|| of the last loop
+  double accuracy = 0;        //!< ||r_true|| / (||M(x-y)/dt^2|| + ||f_ext||)
+  bool accurate = true;       //!< accuracy <= solver.accuracy_tolerance
+};
+
+//! The local model of one quadrature point: energy density and first Piola stress.
+//! `k` is the stiffness of the constant global matrix (A_i = k I).
+struct LocalModel {
+  std::string name;
+  double k = 0;
+  std::function<double(const double* F, double* P)> stress;  // used outside hot loops only
+};
+
+class Elastodynamics {
+ public:
+  Elastodynamics(VoxelSystem& sys, const Config& cfg, PhaseTimers& timers);
+
+  //! Positions and velocities on the ghosted box (3 per node); ghosts kept current.
+  std::vector<double>& x() { return x_; }
+  std::vector<double>& v() { return v_; }
+  //! Resets to the rest state (x = rest positions, v = 0).
+  void reset_to_rest();
+  //! After x, v were overwritten on owned nodes (restart): refresh ghosts.
+  void sync_ghosts();
+
+  //! Advances from time t to t + dt.
+  StepStats step(double t);
+
+  struct Energy {
+    double kinetic = 0, elastic = 0, gravity = 0;
+    double total() const { return kinetic + elastic + gravity; }
+  };
+  Energy energy();
+  double stiffness() const { return k_; }
+  const GlobalSolver& global_solver() const { return solver_; }
+
+ private:
+  void external_forces(double t, std::vector<double>& f) const;
+  //! r = M(y - x)/dt^2 + f_int(x) on free owned nodes; returns the elastic energy (local).
+  double residual(const std::vector<double>& y, std::vector<double>& r);
+  double internal_forces(const std::vector<double>& x, std::vector<double>& f);
+  double owned_norm(const std::vector<double>& a, const std::vector<double>* b = nullptr);
+
+  VoxelSystem& sys_;
+  const Config& cfg_;
+  PhaseTimers& timers_;
+  double dt_, mu_, lambda_, k_;
+  bool arap_;
+  GlobalSolver solver_;
+  std::vector<double> x_, v_, xn_, y_, r_, delta_, fext_, fint_;
+  std::vector<double> force_region_mass_;
+};
+
+}  // namespace gen4d::elastogen

@@ -1,0 +1,257 @@
+#include "elastogen/GlobalSolver.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <tuple>
+
+namespace gen4d::elastogen {
+
+namespace {
+template <class F>
+void for_owned(const Box& O, const Box& G, F&& f) {
+  for (long k = O.start[2]; k < O.start[2] + O.count[2]; ++k)
+    for (long j = O.start[1]; j < O.start[1] + O.count[1]; ++j)
+      for (long i = O.start[0]; i < O.start[0] + O.count[0]; ++i) f(G.index(i, j, k), i, j, k);
+}
+}  // namespace
+
+GlobalSolver::GlobalSolver(VoxelSystem& sys, const SolverConfig& cfg, double k, double dt,
+                           PhaseTimers& timers)
+    : sys_(sys),
+      cfg_(cfg),
+      k_(k),
+      inv_dt2_(1.0 / (dt * dt)),
+      timers_(timers),
+      halo_(sys.grid(), 3),
+      red_(sys.grid().comm()) {
+  sys_.diagonal(k_, inv_dt2_, diag_);
+  const std::size_t n = 3 * sys_.ghosted().size();
+  ad_.assign(n, 0.0);
+  res_.assign(n, 0.0);
+  z_.assign(n, 0.0);
+  p_.assign(n, 0.0);
+  if (cfg_.subspace_modes > 0) build_subspace();
+}
+
+double GlobalSolver::owned_norm2(const std::vector<double>& a) {
+  parallel::ExactSum s;
+  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+    for (int d = 0; d < 3; ++d) s.add(a[3 * n + d] * a[3 * n + d]);
+  });
+  double g = 0;
+  PhaseTimers::Scope t(timers_, "reduction");
+  red_.sum(&s, &g, 1);
+  return g;
+}
+
+void GlobalSolver::build_subspace() {
+  // Cosine products over the node grid: the lowest-frequency modes of the box's discrete
+  // Laplacian with free (Neumann) faces; mode (0,0,0) is the rigid translation.
+  const auto& nn = sys_.grid().global_nodes();
+  const int max_freq = 8;
+  for (int d = 0; d < 3; ++d) {
+    cos_[d].assign(max_freq, std::vector<double>(nn[d]));
+    for (int f = 0; f < max_freq; ++f)
+      for (long i = 0; i < nn[d]; ++i)
+        cos_[d][f][i] = std::cos(M_PI * f * static_cast<double>(i) / static_cast<double>(nn[d] - 1));
+  }
+  std::vector<std::tuple<double, int, int, int>> cand;
+  for (int a = 0; a < max_freq; ++a)
+    for (int b = 0; b < max_freq; ++b)
+      for (int c = 0; c < max_freq; ++c) {
+        const double wave = std::pow(a / double(nn[0] - 1), 2) + std::pow(b / double(nn[1] - 1), 2) +
+                            std::pow(c / double(nn[2] - 1), 2);
+        cand.emplace_back(wave, a, b, c);
+      }
+  std::sort(cand.begin(), cand.end());
+  const int K = std::min<int>(cfg_.subspace_modes, static_cast<int>(cand.size()));
+  for (int m = 0; m < K; ++m)
+    modes_.push_back({std::get<1>(cand[m]), std::get<2>(cand[m]), std::get<3>(cand[m])});
+
+  // Phi^T A Phi, one operator application per mode and one fused reduction for all K^2
+  // entries. The modes live in component 0 only: the operator acts alike on x, y and z.
+  const Box& G = sys_.ghosted();
+  const auto& free = sys_.free_mask();
+  std::vector<double> phi(3 * G.size(), 0.0), aphi(3 * G.size(), 0.0);
+  std::vector<parallel::ExactSum> local(static_cast<std::size_t>(K * K));
+  for (int j = 0; j < K; ++j) {
+    for (long k = G.start[2]; k < G.start[2] + G.count[2]; ++k)
+      for (long jj = G.start[1]; jj < G.start[1] + G.count[1]; ++jj)
+        for (long i = G.start[0]; i < G.start[0] + G.count[0]; ++i) {
+          const std::size_t n = G.index(i, jj, k);
+          phi[3 * n] = free[n] ? mode_value(modes_[j], i, jj, k) : 0.0;
+        }
+    sys_.apply(k_, inv_dt2_, phi.data(), aphi.data());
+    for_owned(sys_.owned(), G, [&](std::size_t n, long i, long jj, long k) {
+      if (!free[n]) return;
+      for (int m = 0; m < K; ++m) local[m * K + j].add(mode_value(modes_[m], i, jj, k) * aphi[3 * n]);
+    });
+  }
+  Eigen::MatrixXd S(K, K);
+  red_.sum(local.data(), S.data(), local.size());
+  S = 0.5 * (S + S.transpose()).eval();
+  // Pseudo-inverse: modes can become dependent once masked to the object.
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(S);
+  const double cutoff = 1e-12 * eig.eigenvalues().cwiseAbs().maxCoeff();
+  Eigen::VectorXd inv = eig.eigenvalues().unaryExpr([&](double l) { return l > cutoff ? 1.0 / l : 0.0; });
+  subspace_pinv_ = eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
+}
+
+void GlobalSolver::subspace_start(const std::vector<double>& r, std::vector<double>& delta) {
+  const int K = static_cast<int>(modes_.size());
+  const Box& G = sys_.ghosted();
+  const auto& free = sys_.free_mask();
+  std::vector<parallel::ExactSum> local(static_cast<std::size_t>(3 * K));
+  {
+    PhaseTimers::Scope t(timers_, "subspace");
+    for_owned(sys_.owned(), G, [&](std::size_t n, long i, long j, long k) {
+      if (!free[n]) return;
+      for (int m = 0; m < K; ++m) {
+        const double phi = mode_value(modes_[m], i, j, k);
+        for (int d = 0; d < 3; ++d) local[3 * m + d].add(phi * r[3 * n + d]);
+      }
+    });
+  }
+  Eigen::MatrixXd rhs(3, K);
+  {
+    PhaseTimers::Scope t(timers_, "reduction");
+    red_.sum(local.data(), rhs.data(), local.size());
+  }
+  PhaseTimers::Scope t(timers_, "subspace");
+  const Eigen::MatrixXd coef = subspace_pinv_ * rhs.transpose();  // K x 3
+  for (long k = G.start[2]; k < G.start[2] + G.count[2]; ++k)
+    for (long j = G.start[1]; j < G.start[1] + G.count[1]; ++j)
+      for (long i = G.start[0]; i < G.start[0] + G.count[0]; ++i) {
+        const std::size_t n = G.index(i, j, k);
+        double acc[3] = {0, 0, 0};
+        if (free[n])
+          for (int m = 0; m < K; ++m) {
+            const double phi = mode_value(modes_[m], i, j, k);
+            for (int d = 0; d < 3; ++d) acc[d] += phi * coef(m, d);
+          }
+        for (int d = 0; d < 3; ++d) delta[3 * n + d] = acc[d];
+      }
+}
+
+InnerStats GlobalSolver::solve(const std::vector<double>& r, std::vector<double>& delta) {
+  const double rnorm = std::sqrt(owned_norm2(r));
+  delta.assign(r.size(), 0.0);
+  if (rnorm == 0.0) return {};
+  if (!modes_.empty()) subspace_start(r, delta);
+  return cfg_.relaxation == "cg" ? cg(r, delta, rnorm) : jacobi(r, delta, rnorm);
+}
+
+InnerStats GlobalSolver::jacobi(const std::vector<double>& r, std::vector<double>& delta,
+                                double rnorm) {
+  const Box& G = sys_.ghosted();
+  const auto& free = sys_.free_mask();
+  const double omega = cfg_.jacobi_omega;
+  const int check_every = 8;
+  InnerStats st;
+  st.relative_residual = 1.0;
+  for (int s = 1; s <= cfg_.max_sweeps; ++s) {
+    {
+      PhaseTimers::Scope t(timers_, "halo");
+      halo_.gather(delta.data());
+    }
+    {
+      PhaseTimers::Scope t(timers_, "sweeps");
+      sys_.apply(k_, inv_dt2_, delta.data(), ad_.data());
+      for_owned(sys_.owned(), G, [&](std::size_t n, long, long, long) {
+        if (!free[n]) return;
+        for (int d = 0; d < 3; ++d) {
+          const double rr = r[3 * n + d] - ad_[3 * n + d];
+          res_[3 * n + d] = rr;
+          delta[3 * n + d] += omega * rr / diag_[n];
+        }
+      });
+    }
+    st.sweeps = s;
+    if (s % check_every == 0 || s == cfg_.max_sweeps) {
+      st.relative_residual = std::sqrt(owned_norm2(res_)) / rnorm;
+      if (st.relative_residual < cfg_.inner_tolerance) break;
+    }
+  }
+  PhaseTimers::Scope t(timers_, "halo");
+  halo_.gather(delta.data());
+  return st;
+}
+
+InnerStats GlobalSolver::cg(const std::vector<double>& r, std::vector<double>& delta,
+                            double rnorm) {
+  // Jacobi-preconditioned conjugate gradients on the same matrix-free operator.
+  const Box& G = sys_.ghosted();
+  const Box& O = sys_.owned();
+  const auto& free = sys_.free_mask();
+  InnerStats st;
+  {
+    PhaseTimers::Scope t(timers_, "halo");
+    halo_.gather(delta.data());
+  }
+  sys_.apply(k_, inv_dt2_, delta.data(), ad_.data());
+  parallel::ExactSum rz0;
+  for_owned(O, G, [&](std::size_t n, long, long, long) {
+    for (int d = 0; d < 3; ++d) {
+      const std::size_t q = 3 * n + d;
+      res_[q] = free[n] ? r[q] - ad_[q] : 0.0;
+      z_[q] = res_[q] / diag_[n];
+      p_[q] = z_[q];
+      rz0.add(res_[q] * z_[q]);
+    }
+  });
+  double rz = 0;
+  red_.sum(&rz0, &rz, 1);
+  st.relative_residual = std::sqrt(owned_norm2(res_)) / rnorm;
+  for (int s = 1; s <= cfg_.max_sweeps && st.relative_residual >= cfg_.inner_tolerance; ++s) {
+    {
+      PhaseTimers::Scope t(timers_, "halo");
+      halo_.gather(p_.data());
+    }
+    parallel::ExactSum pap_l;
+    {
+      PhaseTimers::Scope t(timers_, "sweeps");
+      sys_.apply(k_, inv_dt2_, p_.data(), ad_.data());
+      for_owned(O, G, [&](std::size_t n, long, long, long) {
+        for (int d = 0; d < 3; ++d) pap_l.add(p_[3 * n + d] * ad_[3 * n + d]);
+      });
+    }
+    double pap = 0;
+    {
+      PhaseTimers::Scope t(timers_, "reduction");
+      red_.sum(&pap_l, &pap, 1);
+    }
+    if (!(pap > 0)) break;
+    const double alpha = rz / pap;
+    parallel::ExactSum fused[2];  // r.z and r.r in one reduction
+    {
+      PhaseTimers::Scope t(timers_, "sweeps");
+      for_owned(O, G, [&](std::size_t n, long, long, long) {
+        for (int d = 0; d < 3; ++d) {
+          const std::size_t q = 3 * n + d;
+          delta[q] += alpha * p_[q];
+          res_[q] -= alpha * ad_[q];
+          z_[q] = res_[q] / diag_[n];
+          fused[0].add(res_[q] * z_[q]);
+          fused[1].add(res_[q] * res_[q]);
+        }
+      });
+    }
+    double g[2];
+    {
+      PhaseTimers::Scope t(timers_, "reduction");
+      red_.sum(fused, g, 2);
+    }
+    const double beta = g[0] / rz;
+    rz = g[0];
+    for_owned(O, G, [&](std::size_t n, long, long, long) {
+      for (int d = 0; d < 3; ++d) p_[3 * n + d] = z_[3 * n + d] + beta * p_[3 * n + d];
+    });
+    st.sweeps = s;
+    st.relative_residual = std::sqrt(g[1]) / rnorm;
+  }
+  PhaseTimers::Scope t(timers_, "halo");
+  halo_.gather(delta.data());
+  return st;
+}
+
+}  // namespace gen4d::elastogen

@@ -1,0 +1,280 @@
+#include "elastogen/Simulation.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <filesystem>
+
+#include <fmt/ranges.h>
+
+#include "core/BuildInfo.hpp"
+#include "core/Deck.hpp"
+#include "core/Error.hpp"
+#include "core/Log.hpp"
+#include "geometry/Voxelize.hpp"
+#include "io/Checkpoint.hpp"
+#include "io/FrameWriter.hpp"
+
+namespace gen4d::elastogen {
+
+namespace {
+volatile std::sig_atomic_t g_signal = 0;
+extern "C" void on_signal(int sig) { g_signal = sig; }
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+io::NodeBox to_io(const Box& b) { return io::NodeBox{b.start, b.count}; }
+
+std::string format_duration(double s) {
+  if (!std::isfinite(s)) return "?";
+  if (s < 120) return fmt::format("{:.0f} s", s);
+  if (s < 7200) return fmt::format("{:.1f} min", s / 60);
+  return fmt::format("{:.1f} h", s / 3600);
+}
+}  // namespace
+
+DomainLayout layout_domain(const Config& cfg, const geometry::Shape& shape) {
+  const geometry::Aabb b = shape.bounds();
+  DomainLayout d;
+  const double h = cfg.voxel_size;
+  for (int a = 0; a < 3; ++a) {
+    const long cells = static_cast<long>(std::ceil((b.hi[a] - b.lo[a]) / h - 1e-9));
+    d.nodes[a] = std::max(1L, cells) + 2L * cfg.padding + 1;
+    d.origin[a] = b.lo[a] - cfg.padding * h;
+    if (d.nodes[a] > 100000000L)
+      throw InputError(cfg.source + ": key 'domain.voxel_size': " + std::to_string(d.nodes[a]) +
+                       " nodes along one axis; the voxel size is too small for the object");
+  }
+  return d;
+}
+
+void Simulation::install_signal_handlers() {
+  std::signal(SIGTERM, on_signal);
+  std::signal(SIGUSR1, on_signal);
+}
+
+Simulation::Simulation(MPI_Comm comm, const Config& cfg) : comm_(comm), cfg_(cfg) {
+  MPI_Comm_rank(comm, &rank_);
+  MPI_Comm_size(comm, &size_);
+  auto shape = [&] {
+    PhaseTimers::Scope t(timers_, "voxelize");
+    return geometry::make_shape(cfg_.geometry);
+  }();
+  layout_ = layout_domain(cfg_, *shape);
+  grid_ = std::make_unique<parallel::NodeGrid>(comm, layout_.nodes);
+  std::vector<std::uint8_t> occ;
+  {
+    PhaseTimers::Scope t(timers_, "voxelize");
+    const Box& c = grid_->adjacent_cells();
+    const std::array<long, 3> hi{c.start[0] + c.count[0], c.start[1] + c.count[1],
+                                 c.start[2] + c.count[2]};
+    geometry::voxelize(*shape,
+                       Eigen::Vector3d(layout_.origin[0], layout_.origin[1], layout_.origin[2]),
+                       cfg_.voxel_size, c.start, hi, occ);
+  }
+  sys_ = std::make_unique<VoxelSystem>(*grid_, layout_.origin, cfg_.voxel_size, std::move(occ),
+                                       cfg_.material.density, cfg_.fixed);
+  if (sys_->global_solid_cells() == 0)
+    throw InputError(cfg_.source + ": [[geometry]] produces no solid voxel at voxel_size " +
+                     fmt::format("{:g}", cfg_.voxel_size) + " m; use a smaller voxel_size");
+  if (sys_->global_free_nodes() == 0)
+    throw InputError(cfg_.source + ": [[fixed]] regions hold every node; nothing can move");
+  {
+    PhaseTimers::Scope t(timers_, "setup");
+    dyn_ = std::make_unique<Elastodynamics>(*sys_, cfg_, timers_);
+  }
+  log::info("gen4d {}: '{}' on {} rank(s): grid {}x{}x{} nodes, {} solid voxels, {} free nodes "
+            "({} DoFs), h = {:g} m, k = {:.4g} Pa, {} subspace modes",
+            build::version, cfg_.name, size_, layout_.nodes[0], layout_.nodes[1],
+            layout_.nodes[2], sys_->global_solid_cells(), sys_->global_free_nodes(),
+            3 * sys_->global_free_nodes(), cfg_.voxel_size, dyn_->stiffness(),
+            dyn_->global_solver().subspace_modes());
+}
+
+Simulation::~Simulation() = default;
+
+std::vector<double> Simulation::pack_owned(const std::vector<double>& field) const {
+  const Box& O = grid_->owned_nodes();
+  const Box& G = grid_->ghosted_nodes();
+  std::vector<double> out(3 * O.size());
+  std::size_t p = 0;
+  for (long k = O.start[2]; k < O.start[2] + O.count[2]; ++k)
+    for (long j = O.start[1]; j < O.start[1] + O.count[1]; ++j)
+      for (long i = O.start[0]; i < O.start[0] + O.count[0]; ++i, ++p)
+        for (int d = 0; d < 3; ++d) out[3 * p + d] = field[3 * G.index(i, j, k) + d];
+  return out;
+}
+
+void Simulation::unpack_owned(const std::vector<double>& packed, std::vector<double>& field) const {
+  const Box& O = grid_->owned_nodes();
+  const Box& G = grid_->ghosted_nodes();
+  std::size_t p = 0;
+  for (long k = O.start[2]; k < O.start[2] + O.count[2]; ++k)
+    for (long j = O.start[1]; j < O.start[1] + O.count[1]; ++j)
+      for (long i = O.start[0]; i < O.start[0] + O.count[0]; ++i, ++p)
+        for (int d = 0; d < 3; ++d) field[3 * G.index(i, j, k) + d] = packed[3 * p + d];
+}
+
+std::vector<double> Simulation::owned_positions() const { return pack_owned(dyn_->x()); }
+std::vector<double> Simulation::owned_velocities() const { return pack_owned(dyn_->v()); }
+
+std::vector<std::uint8_t> Simulation::owned_occupancy() const {
+  const Box& oc = grid_->owned_cells();
+  std::vector<std::uint8_t> out(oc.size());
+  std::size_t p = 0;
+  for (long k = oc.start[2]; k < oc.start[2] + oc.count[2]; ++k)
+    for (long j = oc.start[1]; j < oc.start[1] + oc.count[1]; ++j)
+      for (long i = oc.start[0]; i < oc.start[0] + oc.count[0]; ++i, ++p)
+        out[p] = sys_->solid(i, j, k) ? 1 : 0;
+  return out;
+}
+
+void Simulation::load_checkpoint(const std::string& path) {
+  std::vector<double> x, v;
+  const io::CheckpointMeta meta =
+      io::read_checkpoint(comm_, path, to_io(grid_->owned_nodes()), x, v);
+  if (meta.node_dims != layout_.nodes)
+    throw InputError(path + ": checkpoint grid " +
+                     fmt::format("{}", fmt::join(meta.node_dims, "x")) +
+                     " does not match the deck's grid " +
+                     fmt::format("{}", fmt::join(layout_.nodes, "x")));
+  unpack_owned(x, dyn_->x());
+  unpack_owned(v, dyn_->v());
+  dyn_->sync_ghosts();
+  step_ = meta.step;
+  time_ = meta.time;
+  frame_index_ = meta.frame_index;
+  next_frame_time_ = meta.next_frame_time;
+  log::info("restarted from {} at step {}, t = {:.6g} s", path, step_, time_);
+}
+
+std::string Simulation::write_checkpoint(const std::string& out_dir) {
+  PhaseTimers::Scope t(timers_, "io");
+  const auto x = owned_positions();
+  const auto v = owned_velocities();
+  io::CheckpointState s;
+  s.step = static_cast<int>(step_);
+  s.time = time_;
+  s.frame_index = static_cast<int>(frame_index_);
+  s.next_frame_time = next_frame_time_;
+  s.deck_text = cfg_.text;
+  s.node_dims = layout_.nodes;
+  s.owned = to_io(grid_->owned_nodes());
+  s.x = x.data();
+  s.v = v.data();
+  return io::write_checkpoint(comm_, out_dir, s, cfg_.output.checkpoint_keep);
+}
+
+RunResult Simulation::run(const std::string& out_dir, bool append) {
+  RunResult res;
+  const auto t0 = Clock::now();
+  if (rank_ == 0) std::filesystem::create_directories(out_dir);
+  MPI_Barrier(comm_);
+  io::GridMeta meta;
+  meta.node_dims = layout_.nodes;
+  meta.origin = layout_.origin;
+  meta.spacing = cfg_.voxel_size;
+  meta.attributes = {{"deck", cfg_.text},
+                     {"version", build::version},
+                     {"git_revision", build::git_revision},
+                     {"ranks", std::to_string(size_)},
+                     {"solver", "elastogen"}};
+  const std::string frames_path = (std::filesystem::path(out_dir) / "frames.h5").string();
+  std::unique_ptr<io::FrameWriter> writer;
+  {
+    PhaseTimers::Scope t(timers_, "io");
+    if (append) {
+      writer = std::make_unique<io::FrameWriter>(
+          io::FrameWriter::open_append(comm_, frames_path, static_cast<int>(step_)));
+    } else {
+      writer = std::make_unique<io::FrameWriter>(comm_, frames_path, meta);
+      writer->write_occupancy(to_io(grid_->owned_cells()), owned_occupancy().data());
+    }
+  }
+  auto write_frame = [&] {
+    PhaseTimers::Scope t(timers_, "io");
+    const auto x = owned_positions();
+    const auto v = owned_velocities();
+    writer->write_frame(time_, static_cast<int>(step_), to_io(grid_->owned_nodes()), x.data(),
+                        v.data());
+    ++frame_index_;
+    next_frame_time_ = time_ + cfg_.output.frame_interval;
+  };
+  const double dt = cfg_.dt;
+  const long total_steps = static_cast<long>(std::ceil(cfg_.end_time / dt - 1e-9));
+  if (!append && step_ == 0) write_frame();
+  const long start_step = step_;
+  auto last_report = Clock::now();
+  double outer_sum = 0, sweep_sum = 0, worst_acc = 0;
+  long inaccurate = 0;
+  while (step_ < total_steps) {
+    const StepStats st = dyn_->step(time_);
+    ++step_;
+    time_ = step_ * dt;
+    ++res.steps;
+    outer_sum += st.outer;
+    sweep_sum += static_cast<double>(st.sweeps);
+    worst_acc = std::max(worst_acc, st.accuracy);
+    if (!st.accurate) ++inaccurate;
+    if (st.extra > 0)
+      log::info("step {}: accuracy check ran {} extra loop(s), residual {:.2e}{}", step_,
+                st.extra, st.accuracy, st.accurate ? "" : " (above tolerance)");
+    if (time_ + 1e-12 * dt >= next_frame_time_ || step_ == total_steps) write_frame();
+    const int sig_local = static_cast<int>(g_signal);
+    int sig = 0;
+    MPI_Allreduce(&sig_local, &sig, 1, MPI_INT, MPI_MAX, comm_);
+    const bool periodic = cfg_.output.checkpoint_every > 0 &&
+                          step_ % cfg_.output.checkpoint_every == 0 && step_ < total_steps;
+    if (sig != 0 || periodic) {
+      res.last_checkpoint = write_checkpoint(out_dir);
+      if (sig != 0) {
+        g_signal = 0;
+        log::info("received {}: checkpoint {} written at step {}", sig == SIGTERM ? "SIGTERM" : "SIGUSR1",
+                  res.last_checkpoint, step_);
+        if (sig == SIGTERM) {
+          log::info("stopping; resume with: gen4d restart {}", res.last_checkpoint);
+          res.exit_code = 1;
+          break;
+        }
+      }
+    }
+    const double since = std::chrono::duration<double>(Clock::now() - last_report).count();
+    if (since >= cfg_.output.progress_interval || step_ == total_steps) {
+      last_report = Clock::now();
+      const double el = seconds_since(t0);
+      const double rate = (step_ - start_step) / std::max(el, 1e-9);
+      log::info("step {:>6}/{}  t = {:.4f} s  {:.2f} steps/s  ETA {}  loops {:.1f}  sweeps {:.0f}  "
+                "residual {:.1e}",
+                step_, total_steps, time_, rate,
+                format_duration((total_steps - step_) / std::max(rate, 1e-12)),
+                outer_sum / std::max(1L, res.steps), sweep_sum / std::max(1L, res.steps),
+                worst_acc);
+    }
+  }
+  if (res.exit_code == 0) res.last_checkpoint = write_checkpoint(out_dir);
+  writer.reset();
+  res.wall_seconds = seconds_since(t0);
+  if (inaccurate > 0)
+    log::warn("{} step(s) ended above solver.accuracy_tolerance (worst {:.2e})", inaccurate,
+              worst_acc);
+  report_timers(res.wall_seconds);
+  return res;
+}
+
+void Simulation::report_timers(double wall) const {
+  // The slowest rank's time per phase is what bounds the run.
+  const char* phases[] = {"voxelize", "setup", "stencil+svd", "subspace", "sweeps",
+                          "halo",     "reduction", "io"};
+  log::info("phase timers (max over ranks, wall {:.2f} s, {:.2f} steps/s):", wall,
+            (step_ > 0 ? step_ : 0) / std::max(wall, 1e-9));
+  for (const char* p : phases) {
+    double local = timers_.total(p), global = 0;
+    MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_MAX, comm_);
+    log::info("  {:<12} {:9.3f} s  {:5.1f} %", p, global, 100.0 * global / std::max(wall, 1e-9));
+  }
+}
+
+}  // namespace gen4d::elastogen

@@ -1,0 +1,121 @@
+#include "elastogen/VoxelSystem.hpp"
+
+#include <utility>
+
+namespace gen4d::elastogen {
+
+VoxelSystem::VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, double h,
+                         std::vector<std::uint8_t> occupancy, double density,
+                         const std::vector<FixedConfig>& fixed)
+    : grid_(grid), origin_(origin), h_(h), occ_(std::move(occupancy)) {
+  const Box& G = ghosted();
+  const Box& C = cells();
+  for (int m = 0; m < 8; ++m)
+    corner_offset_[m] = static_cast<long>(G.index(G.start[0] + (m & 1), G.start[1] + ((m >> 1) & 1),
+                                                  G.start[2] + ((m >> 2) & 1)));
+  adj_.assign(G.size(), 0);
+  mass_.assign(G.size(), 0.0);
+  free_.assign(G.size(), 0);
+  fixed_.assign(G.size(), 0);
+  const double cell_mass = density * h * h * h;
+  const Box& O = owned();
+  long local_free = 0, local_solid = 0;
+  for (long k = O.start[2]; k < O.start[2] + O.count[2]; ++k)
+    for (long j = O.start[1]; j < O.start[1] + O.count[1]; ++j)
+      for (long i = O.start[0]; i < O.start[0] + O.count[0]; ++i) {
+        const std::size_t n = G.index(i, j, k);
+        for (int cell = 0; cell < 8; ++cell) {
+          const long ci = i - 1 + (cell & 1), cj = j - 1 + ((cell >> 1) & 1),
+                     ck = k - 1 + ((cell >> 2) & 1);
+          if (solid(ci, cj, ck)) {
+            adj_[n] |= static_cast<std::uint8_t>(1u << cell);
+            mass_[n] += 0.125 * cell_mass;
+          }
+        }
+        bool is_fixed = false;
+        const auto p = rest_position(i, j, k);
+        for (const auto& fx : fixed) is_fixed = is_fixed || fx.region.contains({p[0], p[1], p[2]});
+        fixed_[n] = adj_[n] != 0 && is_fixed;
+        free_[n] = adj_[n] != 0 && !is_fixed;
+        local_free += free_[n];
+      }
+  const Box& oc = grid_.owned_cells();
+  for (long k = oc.start[2]; k < oc.start[2] + oc.count[2]; ++k)
+    for (long j = oc.start[1]; j < oc.start[1] + oc.count[1]; ++j)
+      for (long i = oc.start[0]; i < oc.start[0] + oc.count[0]; ++i)
+        local_solid += occ_[C.index(i, j, k)] != 0;
+  // Masks and masses of ghost nodes come from their owners.
+  parallel::Halo halo(grid_, 1);
+  std::vector<double> tmp(G.size());
+  for (std::size_t n = 0; n < tmp.size(); ++n) tmp[n] = free_[n] + 2.0 * fixed_[n];
+  halo.gather(tmp.data());
+  for (std::size_t n = 0; n < tmp.size(); ++n) {
+    const int flags = static_cast<int>(tmp[n]);
+    free_[n] = flags & 1;
+    fixed_[n] = (flags >> 1) & 1;
+  }
+  halo.gather(mass_.data());
+  parallel::Reducer red(grid_.comm());
+  global_free_ = red.sum(static_cast<long long>(local_free));
+  global_solid_ = red.sum(static_cast<long long>(local_solid));
+}
+
+bool VoxelSystem::solid(long ci, long cj, long ck) const {
+  const Box& C = cells();
+  if (!C.contains(ci, cj, ck)) return false;
+  return occ_[C.index(ci, cj, ck)] != 0;
+}
+
+void VoxelSystem::apply(double k, double inv_dt2, const double* delta, double* out) const {
+  const HexStencil& s = HexStencil::get();
+  const Box& G = ghosted();
+  const Box& O = owned();
+  const double kh = k * h_;
+  const long gx = G.count[0], gxy = G.count[0] * G.count[1];
+  for (long kk = O.start[2]; kk < O.start[2] + O.count[2]; ++kk)
+    for (long j = O.start[1]; j < O.start[1] + O.count[1]; ++j)
+      for (long i = O.start[0]; i < O.start[0] + O.count[0]; ++i) {
+        const std::size_t n = G.index(i, j, kk);
+        double acc[3] = {0, 0, 0};
+        if (free_[n]) {
+          const double m = mass_[n] * inv_dt2;
+          for (int d = 0; d < 3; ++d) acc[d] = m * delta[3 * n + d];
+          for (int cell = 0; cell < 8; ++cell) {
+            if (!(adj_[n] >> cell & 1)) continue;
+            const int a = cell & 1, b = (cell >> 1) & 1, c = (cell >> 2) & 1;
+            const int l = (1 - a) + 2 * (1 - b) + 4 * (1 - c);
+            const long base = static_cast<long>(n) - (1 - a) - (1 - b) * gx - (1 - c) * gxy;
+            for (int mm = 0; mm < 8; ++mm) {
+              const double coef = kh * s.K[l][mm];
+              const double* src = &delta[3 * (base + corner_offset_[mm])];
+              acc[0] += coef * src[0];
+              acc[1] += coef * src[1];
+              acc[2] += coef * src[2];
+            }
+          }
+        }
+        for (int d = 0; d < 3; ++d) out[3 * n + d] = acc[d];
+      }
+}
+
+void VoxelSystem::diagonal(double k, double inv_dt2, std::vector<double>& diag) const {
+  const HexStencil& s = HexStencil::get();
+  const Box& G = ghosted();
+  const Box& O = owned();
+  diag.assign(G.size(), 1.0);
+  for (long kk = O.start[2]; kk < O.start[2] + O.count[2]; ++kk)
+    for (long j = O.start[1]; j < O.start[1] + O.count[1]; ++j)
+      for (long i = O.start[0]; i < O.start[0] + O.count[0]; ++i) {
+        const std::size_t n = G.index(i, j, kk);
+        if (!free_[n]) continue;
+        double d = mass_[n] * inv_dt2;
+        for (int cell = 0; cell < 8; ++cell) {
+          if (!(adj_[n] >> cell & 1)) continue;
+          const int l = (1 - (cell & 1)) + 2 * (1 - ((cell >> 1) & 1)) + 4 * (1 - ((cell >> 2) & 1));
+          d += k * h_ * s.K[l][l];
+        }
+        diag[n] = d;
+      }
+}
+
+}  // namespace gen4d::elastogen

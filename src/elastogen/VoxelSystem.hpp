@@ -1,0 +1,127 @@
+//! Per-rank view of the voxelized object: solid cells, node masks, lumped masses, and the
+//! matrix-free stencils of ElastoGen (global-step operator and internal forces).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "core/Config.hpp"
+#include "elastogen/HexStencil.hpp"
+#include "parallel/Grid.hpp"
+#include "parallel/Halo.hpp"
+#include "parallel/Reduce.hpp"
+
+namespace gen4d::elastogen {
+
+using parallel::Box;
+
+//! Node arrays live on the rank's ghosted node box (x-fastest, 3 dof interleaved for
+//! vectors); cell arrays on the adjacent-cell box. Every owned-node result is computed
+//! node by node from its 8 neighbouring voxels in a fixed order, so it does not depend on
+//! the decomposition: the same arithmetic runs whatever the rank count.
+class VoxelSystem {
+ public:
+  //! `occupancy` covers grid.adjacent_cells() (1 = solid), as voxelized by this rank.
+  VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, double h,
+              std::vector<std::uint8_t> occupancy, double density,
+              const std::vector<FixedConfig>& fixed);
+
+  const parallel::NodeGrid& grid() const { return grid_; }
+  const Box& ghosted() const { return grid_.ghosted_nodes(); }
+  const Box& owned() const { return grid_.owned_nodes(); }
+  const Box& cells() const { return grid_.adjacent_cells(); }
+  double h() const { return h_; }
+  const Vec3d& origin() const { return origin_; }
+  std::array<double, 3> rest_position(long i, long j, long k) const {
+    return {origin_[0] + h_ * i, origin_[1] + h_ * j, origin_[2] + h_ * k};
+  }
+  bool solid(long ci, long cj, long ck) const;
+  const std::vector<std::uint8_t>& occupancy() const { return occ_; }
+
+  //! Lumped mass per ghosted node (kg); 0 for nodes touching no solid voxel.
+  const std::vector<double>& mass() const { return mass_; }
+  //! 1 where the node is an unknown (touches a solid voxel and is not fixed), ghosts included.
+  const std::vector<std::uint8_t>& free_mask() const { return free_; }
+  const std::vector<std::uint8_t>& fixed_mask() const { return fixed_; }
+  long global_solid_cells() const { return global_solid_; }
+  long global_free_nodes() const { return global_free_; }
+
+  //! out = (M/dt^2 + k L) delta on free owned nodes, 0 elsewhere. delta's ghosts must be
+  //! current. This is the seed's convolution / per-voxel multiply / transposed convolution
+  //! fused into one 27-point stencil (the composition G^T k G for the trilinear voxel).
+  void apply(double k, double inv_dt2, const double* delta, double* out) const;
+  //! Diagonal of the same operator on owned nodes (1 on non-free nodes).
+  void diagonal(double k, double inv_dt2, std::vector<double>& diag) const;
+
+  //! Internal forces f = -dE/dx on owned free nodes and the elastic energy of owned cells.
+  //! `stress(F, P)` returns the energy density and writes the first Piola stress.
+  template <class StressFn>
+  double internal_forces(const StressFn& stress, const double* x, double* f);
+
+ private:
+  std::size_t cell_index(long ci, long cj, long ck) const { return cells().index(ci, cj, ck); }
+
+  const parallel::NodeGrid& grid_;
+  Vec3d origin_;
+  double h_;
+  std::vector<std::uint8_t> occ_;        // on adjacent cells
+  std::vector<std::uint8_t> adj_;        // per ghosted node: bit of each solid neighbour cell
+  std::vector<double> mass_;             // per ghosted node
+  std::vector<std::uint8_t> free_, fixed_;
+  std::vector<double> cell_forces_;      // 24 per adjacent cell
+  long global_solid_ = 0, global_free_ = 0;
+  std::array<long, 8> corner_offset_{};  // ghosted linear offset of corner m from the cell base
+};
+
+template <class StressFn>
+double VoxelSystem::internal_forces(const StressFn& stress, const double* x, double* f) {
+  const HexStencil& s = HexStencil::get();
+  const Box& C = cells();
+  const Box& G = ghosted();
+  const Box& oc = grid_.owned_cells();
+  const double inv_h = 1.0 / h_, w = h_ * h_ * h_ / 8.0;
+  parallel::ExactSum energy;
+  cell_forces_.assign(24 * C.size(), 0.0);
+  for (long ck = C.start[2]; ck < C.start[2] + C.count[2]; ++ck)
+    for (long cj = C.start[1]; cj < C.start[1] + C.count[1]; ++cj)
+      for (long ci = C.start[0]; ci < C.start[0] + C.count[0]; ++ci) {
+        const std::size_t c = C.index(ci, cj, ck);
+        if (!occ_[c]) continue;
+        const std::size_t base = G.index(ci, cj, ck);
+        double xe[8][3], fe[8][3] = {};
+        for (int m = 0; m < 8; ++m)
+          for (int a = 0; a < 3; ++a) xe[m][a] = x[3 * (base + corner_offset_[m]) + a];
+        double psi = 0;
+        for (int q = 0; q < 8; ++q) {
+          double F[9], P[9];
+          deformation_gradient(s, q, xe, inv_h, F);
+          psi += stress(F, P);
+          add_node_forces(s, q, P, w * inv_h, fe);
+        }
+        if (oc.contains(ci, cj, ck)) energy.add(w * psi);
+        double* dst = &cell_forces_[24 * c];
+        for (int m = 0; m < 8; ++m)
+          for (int a = 0; a < 3; ++a) dst[3 * m + a] = fe[m][a];
+      }
+  const Box& O = owned();
+  for (long k = O.start[2]; k < O.start[2] + O.count[2]; ++k)
+    for (long j = O.start[1]; j < O.start[1] + O.count[1]; ++j)
+      for (long i = O.start[0]; i < O.start[0] + O.count[0]; ++i) {
+        const std::size_t n = G.index(i, j, k);
+        double acc[3] = {0, 0, 0};
+        if (free_[n]) {
+          for (int cell = 0; cell < 8; ++cell) {
+            if (!(adj_[n] >> cell & 1)) continue;
+            const int a = cell & 1, b = (cell >> 1) & 1, cc = (cell >> 2) & 1;
+            const int l = (1 - a) + 2 * (1 - b) + 4 * (1 - cc);
+            const double* src = &cell_forces_[24 * cell_index(i - 1 + a, j - 1 + b, k - 1 + cc)];
+            for (int d = 0; d < 3; ++d) acc[d] -= src[3 * l + d];
+          }
+        }
+        for (int d = 0; d < 3; ++d) f[3 * n + d] = acc[d];
+      }
+  return energy.hi + energy.lo;  // rank-local; callers reduce
+}
+
+}  // namespace gen4d::elastogen

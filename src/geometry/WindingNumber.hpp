@@ -1,0 +1,47 @@
+//! Generalized winding number of a triangle mesh: exact sum and a fast tree approximation.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <array>
+#include <vector>
+
+#include "geometry/Mesh.hpp"
+
+namespace gen4d::geometry {
+
+//! Signed solid angle of triangle (a, b, c) seen from q, divided by 4 pi.
+double triangle_winding(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                        const Eigen::Vector3d& c, const Eigen::Vector3d& q);
+
+//! Exact O(N) winding number: the sum of triangle_winding over all triangles.
+double winding_number_exact(const Mesh& mesh, const Eigen::Vector3d& q);
+
+//! Fast winding number (Barill et al. 2018): a bounding-volume hierarchy over the triangles;
+//! a cluster whose bounding ball (radius r) is farther than beta * r from the query is
+//! replaced by its dipole (area-weighted normal at the area-weighted centroid), nearer
+//! clusters are summed exactly.
+class WindingNumberTree {
+ public:
+  explicit WindingNumberTree(const Mesh& mesh, double beta = 2.0);
+  double operator()(const Eigen::Vector3d& q) const;
+  std::size_t node_count() const { return nodes_.size(); }
+
+ private:
+  struct Node {
+    Eigen::Vector3d center;      //!< area-weighted centroid of the cluster
+    Eigen::Vector3d dipole;      //!< sum of area * unit normal
+    double radius = 0;           //!< all cluster vertices lie within this of center
+    int first = 0, count = 0;    //!< triangle range (in tris_ order)
+    int left = -1, right = -1;   //!< children; -1 for leaves
+  };
+  int build(std::vector<int>& order, std::vector<Eigen::Vector3d>& centroids, int first,
+            int count, int depth);
+  void summarize(Node& node) const;
+
+  std::vector<std::array<Eigen::Vector3d, 3>> tris_;
+  std::vector<Node> nodes_;
+  double beta_;
+};
+
+}  // namespace gen4d::geometry

@@ -1,0 +1,291 @@
+#include "io/Checkpoint.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+
+#include "core/Error.hpp"
+#include "core/Log.hpp"
+#include "io/Hdf5.hpp"
+
+namespace gen4d::io {
+namespace fs = std::filesystem;
+namespace {
+
+std::string padded(int step) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%08d", step);
+  return text;
+}
+
+//! (step, path) of every checkpoint_<digits>.h5 in `dir`.
+std::vector<std::pair<long, std::string>> list_checkpoints(const std::string& dir) {
+  std::vector<std::pair<long, std::string>> found;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    const std::string prefix = "checkpoint_", suffix = ".h5";
+    if (name.size() <= prefix.size() + suffix.size() || name.rfind(prefix, 0) != 0 ||
+        name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0) {
+      continue;
+    }
+    const std::string digits =
+        name.substr(prefix.size(), name.size() - prefix.size() - suffix.size());
+    if (digits.size() > 18 || !std::all_of(digits.begin(), digits.end(),
+                                           [](unsigned char c) { return std::isdigit(c); })) {
+      continue;
+    }
+    found.emplace_back(std::stol(digits), it->path().string());
+  }
+  std::sort(found.begin(), found.end());
+  return found;
+}
+
+void remove_old_checkpoints(const std::string& dir, int keep) {
+  if (keep <= 0) return;
+  auto found = list_checkpoints(dir);
+  for (std::size_t i = 0; i + keep < found.size(); ++i) {
+    std::error_code ec;
+    if (!fs::remove(found[i].second, ec)) {
+      log::warn("cannot remove old checkpoint {}: {}", found[i].second, ec.message());
+    }
+  }
+}
+
+void write_contents(hid_t file, const CheckpointState& s) {
+  h5::write_attr(file, "format", std::string(kCheckpointFormat));
+  h5::write_attr(file, "format_version", kCheckpointFormatVersion);
+  h5::write_attr(file, "step", static_cast<long>(s.step));
+  h5::write_attr(file, "time", s.time);
+  h5::write_attr(file, "frame_index", static_cast<long>(s.frame_index));
+  h5::write_attr(file, "next_frame_time", s.next_frame_time);
+  h5::write_attr(file, "node_dims", s.node_dims);
+  h5::write_attr(file, "deck", s.deck_text);
+  h5::Handle extras = h5::create_group(file, "/extras");
+  for (const auto& [name, value] : s.extras) h5::write_attr(extras.get(), name, value);
+  for (const char* name : {"position", "velocity"}) {
+    h5::Handle dataset = h5::create_grid_dataset(file, name, H5T_IEEE_F64LE, s.node_dims, 3);
+    h5::write_box(dataset.get(), H5T_NATIVE_DOUBLE, s.owned, 3, name[0] == 'p' ? s.x : s.v);
+  }
+}
+
+//! Rejects files that are not gen4d checkpoints of this version; returns the node dims.
+std::array<long, 3> check_layout(hid_t file, const std::string& path) {
+  if (!h5::has_attr(file, "format")) {
+    throw InputError(path + ": not a gen4d checkpoint (no 'format' attribute)");
+  }
+  const std::string format = h5::read_string_attr(file, "format", path);
+  if (format != kCheckpointFormat) {
+    throw InputError(path + ": not a gen4d checkpoint (format is '" + format + "', expected '" +
+                     kCheckpointFormat + "')");
+  }
+  const long version = h5::read_long_attr(file, "format_version", path);
+  if (version != kCheckpointFormatVersion) {
+    throw InputError(path + ": checkpoint format_version " + std::to_string(version) +
+                     " is not supported (expected " + std::to_string(kCheckpointFormatVersion) +
+                     ")");
+  }
+  const std::array<long, 3> dims = h5::read_long3_attr(file, "node_dims", path);
+  for (long n : dims) {
+    if (n < 1) throw InputError(path + ": node_dims must be positive");
+  }
+  for (const char* name : {"/position", "/velocity"}) {
+    h5::open_grid_dataset(file, name, H5T_FLOAT, dims, 3, path);
+  }
+  return dims;
+}
+
+CheckpointMeta read_meta_serial(const std::string& path) {
+  h5::Handle file = h5::open_file_serial(path);
+  CheckpointMeta meta;
+  meta.node_dims = check_layout(file.get(), path);
+  meta.step = static_cast<int>(h5::read_long_attr(file.get(), "step", path));
+  meta.time = h5::read_double_attr(file.get(), "time", path);
+  meta.frame_index = static_cast<int>(h5::read_long_attr(file.get(), "frame_index", path));
+  meta.next_frame_time = h5::read_double_attr(file.get(), "next_frame_time", path);
+  meta.deck_text = h5::read_string_attr(file.get(), "deck", path);
+  h5::Handle extras = h5::open_group(file.get(), "/extras", h5::Failure::Input, path);
+  for (const std::string& name : h5::attr_names(extras.get())) {
+    meta.extras[name] = h5::read_double_attr(extras.get(), name, path + " /extras");
+  }
+  return meta;
+}
+
+// Byte packing of CheckpointMeta for the broadcast from rank 0.
+template <class T>
+void put(std::string& buffer, const T& value) {
+  buffer.append(reinterpret_cast<const char*>(&value), sizeof value);
+}
+void put(std::string& buffer, const std::string& text) {
+  put(buffer, text.size());
+  buffer += text;
+}
+struct Unpacker {
+  const std::string& buffer;
+  std::size_t pos = 0;
+  template <class T>
+  void get(T& value) {
+    std::memcpy(&value, buffer.data() + pos, sizeof value);
+    pos += sizeof value;
+  }
+  void get(std::string& text) {
+    std::size_t n = 0;
+    get(n);
+    text = buffer.substr(pos, n);
+    pos += n;
+  }
+};
+
+std::string pack(const CheckpointMeta& m) {
+  std::string buffer;
+  put(buffer, m.step);
+  put(buffer, m.time);
+  put(buffer, m.frame_index);
+  put(buffer, m.next_frame_time);
+  put(buffer, m.node_dims);
+  put(buffer, m.deck_text);
+  put(buffer, m.extras.size());
+  for (const auto& [name, value] : m.extras) {
+    put(buffer, name);
+    put(buffer, value);
+  }
+  return buffer;
+}
+
+CheckpointMeta unpack(const std::string& buffer) {
+  CheckpointMeta m;
+  Unpacker in{buffer};
+  in.get(m.step);
+  in.get(m.time);
+  in.get(m.frame_index);
+  in.get(m.next_frame_time);
+  in.get(m.node_dims);
+  in.get(m.deck_text);
+  std::size_t count = 0;
+  in.get(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    std::string name;
+    double value = 0;
+    in.get(name);
+    in.get(value);
+    m.extras[name] = value;
+  }
+  return m;
+}
+
+}  // namespace
+
+std::string checkpoint_path(const std::string& dir, int step) {
+  return (fs::path(dir) / ("checkpoint_" + padded(step) + ".h5")).string();
+}
+
+std::string write_checkpoint(MPI_Comm comm, const std::string& dir, const CheckpointState& state,
+                             int keep) {
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  const std::string final_path = checkpoint_path(dir, state.step);
+  const std::string temp_path =
+      (fs::path(dir) / (".checkpoint_" + padded(state.step) + ".h5.tmp")).string();
+  std::string error;
+  if (!state.owned.inside(state.node_dims) ||
+      (!state.owned.empty() && (state.x == nullptr || state.v == nullptr))) {
+    error = final_path + ": this rank's node box is outside the grid or has no data";
+  }
+  std::error_code ec;
+  if (rank == 0 && error.empty() && !fs::is_directory(dir, ec) &&
+      !fs::create_directories(dir, ec)) {
+    error = dir + ": cannot create the checkpoint directory (" + ec.message() + ")";
+  }
+  error = h5::first_error(comm, error);
+  if (!error.empty()) throw RuntimeError(error);
+
+  try {
+    h5::Handle file = h5::create_file(comm, temp_path);
+    write_contents(file.get(), state);
+    file.close(h5::Failure::Runtime, "cannot finish the file");
+  } catch (const std::exception& e) {
+    error = temp_path + ": " + e.what();
+  }
+  error = h5::first_error(comm, error);
+  if (rank == 0) {
+    if (error.empty() && std::rename(temp_path.c_str(), final_path.c_str()) != 0) {
+      error = "cannot rename " + temp_path + " to " + final_path;
+    }
+    if (error.empty()) {
+      remove_old_checkpoints(dir, keep);
+    } else {
+      std::remove(temp_path.c_str());
+    }
+  }
+  // Also the barrier after which every rank sees the renamed file.
+  error = h5::first_error(comm, error);
+  if (!error.empty()) throw RuntimeError(error);
+  return final_path;
+}
+
+CheckpointMeta read_checkpoint_meta(MPI_Comm comm, const std::string& path) {
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  h5::silence_errors();
+  std::string packed, error;
+  if (rank == 0) {
+    try {
+      packed = pack(read_meta_serial(path));
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
+  error = h5::first_error(comm, error);
+  if (!error.empty()) throw InputError(error);
+  unsigned long length = packed.size();
+  MPI_Bcast(&length, 1, MPI_UNSIGNED_LONG, 0, comm);
+  packed.resize(length);
+  MPI_Bcast(packed.data(), static_cast<int>(length), MPI_CHAR, 0, comm);
+  return unpack(packed);
+}
+
+void read_checkpoint_fields(MPI_Comm comm, const std::string& path, const NodeBox& owned,
+                            std::vector<double>& x, std::vector<double>& v) {
+  std::string error;
+  h5::Handle file;
+  std::array<long, 3> dims{};
+  try {
+    file = h5::open_file(comm, path, false);
+    dims = check_layout(file.get(), path);
+    if (!owned.inside(dims)) error = path + ": a rank's node box lies outside the checkpoint grid";
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  error = h5::first_error(comm, error);
+  if (!error.empty()) throw InputError(error);
+  try {
+    x.assign(3 * owned.size(), 0.0);
+    v.assign(3 * owned.size(), 0.0);
+    for (const char* name : {"/position", "/velocity"}) {
+      h5::Handle dataset = h5::open_grid_dataset(file.get(), name, H5T_FLOAT, dims, 3, path);
+      h5::read_box(dataset.get(), H5T_NATIVE_DOUBLE, owned, 3, name[1] == 'p' ? x.data() : v.data(),
+                   path + ": cannot read dataset " + name);
+    }
+    file.close(h5::Failure::Input, path + ": cannot close");
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  error = h5::first_error(comm, error);
+  if (!error.empty()) throw InputError(error);
+}
+
+CheckpointMeta read_checkpoint(MPI_Comm comm, const std::string& path, const NodeBox& owned,
+                               std::vector<double>& x, std::vector<double>& v) {
+  CheckpointMeta meta = read_checkpoint_meta(comm, path);
+  read_checkpoint_fields(comm, path, owned, x, v);
+  return meta;
+}
+
+std::string latest_checkpoint(const std::string& dir) {
+  auto found = list_checkpoints(dir);
+  return found.empty() ? std::string() : found.back().second;
+}
+
+}  // namespace gen4d::io

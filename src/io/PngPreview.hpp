@@ -1,0 +1,23 @@
+//! Software-rendered PNG previews of stored frames, to look at a run without a viewer.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "io/FrameReader.hpp"
+
+namespace gen4d::io {
+
+//! Renders frame `frame` (position in reader.frames()) of the solid's surface, the faces
+//! between solid voxels and empty space at their deformed node positions, to a width x height
+//! RGB PNG. The camera frames the rest-state (frame 0) solid from an elevated three-quarter
+//! view, identical for every frame so a sequence is comparable. The file appears under its
+//! name only once complete; failures to write it are RuntimeErrors, bad frames InputErrors.
+void render_frame_png(const FrameReader& reader, int frame, const std::string& png_path, int width,
+                      int height);
+
+//! Renders each of `frames` to out_dir/frame_<frame, 6 digits>.png; returns the paths.
+std::vector<std::string> render_frames(const FrameReader& reader, const std::vector<int>& frames,
+                                       const std::string& out_dir, int width, int height);
+
+}  // namespace gen4d::io

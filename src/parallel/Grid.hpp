@@ -1,0 +1,62 @@
+//! Distributed node grid: a PETSc DMDA (box stencil, width 1) over the voxel corners.
+#pragma once
+
+#include <petscdmda.h>
+
+#include <array>
+#include <cstddef>
+
+namespace gen4d::parallel {
+
+//! A box of global indices [start, start + count) per axis; storage is x-fastest.
+struct Box {
+  std::array<long, 3> start{0, 0, 0};
+  std::array<long, 3> count{0, 0, 0};
+
+  long size() const { return count[0] * count[1] * count[2]; }
+  bool contains(long i, long j, long k) const {
+    return i >= start[0] && i < start[0] + count[0] && j >= start[1] &&
+           j < start[1] + count[1] && k >= start[2] && k < start[2] + count[2];
+  }
+  //! Linear index of global (i, j, k) inside this box (no bounds check).
+  std::size_t index(long i, long j, long k) const {
+    return static_cast<std::size_t>(((k - start[2]) * count[1] + (j - start[1])) * count[0] +
+                                    (i - start[0]));
+  }
+};
+
+//! Owns the DMDAs (1 and 3 dof) for a global node grid and describes this rank's boxes.
+//! Nodes (i, j, k) are voxel corners; voxel (i, j, k) spans nodes i..i+1 per axis.
+class NodeGrid {
+ public:
+  NodeGrid(MPI_Comm comm, const std::array<long, 3>& global_nodes);
+  ~NodeGrid();
+  NodeGrid(const NodeGrid&) = delete;
+  NodeGrid& operator=(const NodeGrid&) = delete;
+
+  MPI_Comm comm() const { return comm_; }
+  int rank() const { return rank_; }
+  int size() const { return size_; }
+  DM dm(int dof) const { return dof == 3 ? dm3_ : dm1_; }
+
+  const std::array<long, 3>& global_nodes() const { return global_; }
+  std::array<long, 3> global_cells() const {
+    return {global_[0] - 1, global_[1] - 1, global_[2] - 1};
+  }
+  const Box& owned_nodes() const { return owned_; }
+  const Box& ghosted_nodes() const { return ghosted_; }
+  //! Voxels touching an owned node: the cells whose 8 corners the rank needs. They lie in
+  //! the ghosted node box, so one halo gather makes all their corners available.
+  const Box& adjacent_cells() const { return cells_; }
+  //! Cells this rank owns for output: lower corner owned and inside the grid.
+  const Box& owned_cells() const { return owned_cells_; }
+
+ private:
+  MPI_Comm comm_;
+  int rank_ = 0, size_ = 1;
+  std::array<long, 3> global_{};
+  DM dm1_ = nullptr, dm3_ = nullptr;
+  Box owned_, ghosted_, cells_, owned_cells_;
+};
+
+}  // namespace gen4d::parallel

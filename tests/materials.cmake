@@ -1,0 +1,3 @@
+# Pointwise materials: signed 3x3 SVD, constitutive models, registry (serial).
+gen4d_test(svd3 SOURCES test_svd3.cpp LIBS gen4d_materials RANKS 1)
+gen4d_test(materials SOURCES test_materials.cpp LIBS gen4d_materials RANKS 1)

@@ -1,0 +1,277 @@
+// Valid decks: values, defaults, --set overrides and the parse(text) round trip of restarts.
+#include "test_deck_common.hpp"
+
+#include <sstream>
+
+#include "core/DeckReader.hpp"
+
+namespace gen4d::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kMinimalDeck = R"(
+[simulation]
+dt = 0.01
+end_time = 1
+
+[domain]
+voxel_size = 0.1
+
+[[geometry]]
+type = "sphere"
+center = [0, 0, 0]
+radius = 0.5
+
+[material]
+youngs_modulus = 1e5
+poisson_ratio = 0.25
+density = 500
+)";
+
+void expect_box(const BoxRegion& r, const Vec3d& lo, const Vec3d& hi) {
+  EXPECT_EQ(r.lo, lo);
+  EXPECT_EQ(r.hi, hi);
+}
+
+//! Field-by-field equality; exact, since a restart must reproduce the run bit for bit.
+void expect_same(const Config& a, const Config& b) {
+  EXPECT_EQ(a.name, b.name);
+  EXPECT_EQ(a.dt, b.dt);
+  EXPECT_EQ(a.end_time, b.end_time);
+  EXPECT_EQ(a.gravity, b.gravity);
+  EXPECT_EQ(a.voxel_size, b.voxel_size);
+  EXPECT_EQ(a.padding, b.padding);
+  ASSERT_EQ(a.geometry.size(), b.geometry.size());
+  for (std::size_t i = 0; i < a.geometry.size(); ++i) {
+    const GeometryConfig &g = a.geometry[i], &h = b.geometry[i];
+    EXPECT_EQ(g.type, h.type);
+    EXPECT_EQ(g.lo, h.lo);
+    EXPECT_EQ(g.hi, h.hi);
+    EXPECT_EQ(g.center, h.center);
+    EXPECT_EQ(g.radius, h.radius);
+    EXPECT_EQ(g.a, h.a);
+    EXPECT_EQ(g.b, h.b);
+    EXPECT_EQ(g.file, h.file);
+    EXPECT_EQ(g.grid, h.grid);
+    EXPECT_EQ(g.scale, h.scale);
+    EXPECT_EQ(g.translate, h.translate);
+  }
+  EXPECT_EQ(a.material.model, b.material.model);
+  EXPECT_EQ(a.material.target, b.material.target);
+  EXPECT_EQ(a.material.youngs_modulus, b.material.youngs_modulus);
+  EXPECT_EQ(a.material.poisson_ratio, b.material.poisson_ratio);
+  EXPECT_EQ(a.material.density, b.material.density);
+  const SolverConfig &s = a.solver, &t = b.solver;
+  EXPECT_EQ(s.relaxation, t.relaxation);
+  EXPECT_EQ(s.jacobi_omega, t.jacobi_omega);
+  EXPECT_EQ(s.max_sweeps, t.max_sweeps);
+  EXPECT_EQ(s.inner_tolerance, t.inner_tolerance);
+  EXPECT_EQ(s.subspace_modes, t.subspace_modes);
+  EXPECT_EQ(s.max_outer, t.max_outer);
+  EXPECT_EQ(s.outer_tolerance, t.outer_tolerance);
+  EXPECT_EQ(s.accuracy_tolerance, t.accuracy_tolerance);
+  EXPECT_EQ(s.max_extra_outer, t.max_extra_outer);
+  ASSERT_EQ(a.fixed.size(), b.fixed.size());
+  for (std::size_t i = 0; i < a.fixed.size(); ++i)
+    expect_box(a.fixed[i].region, b.fixed[i].region.lo, b.fixed[i].region.hi);
+  ASSERT_EQ(a.forces.size(), b.forces.size());
+  for (std::size_t i = 0; i < a.forces.size(); ++i) {
+    expect_box(a.forces[i].region, b.forces[i].region.lo, b.forces[i].region.hi);
+    EXPECT_EQ(a.forces[i].force, b.forces[i].force);
+    EXPECT_EQ(a.forces[i].start, b.forces[i].start);
+    EXPECT_EQ(a.forces[i].end, b.forces[i].end);
+  }
+  EXPECT_EQ(a.output.dir, b.output.dir);
+  EXPECT_EQ(a.output.frame_interval, b.output.frame_interval);
+  EXPECT_EQ(a.output.checkpoint_every, b.output.checkpoint_every);
+  EXPECT_EQ(a.output.checkpoint_keep, b.output.checkpoint_keep);
+  EXPECT_EQ(a.output.progress_interval, b.output.progress_interval);
+}
+
+TEST(Deck, FullDeckValues) {
+  const std::string path = write_deck("full.toml", kFullDeck);
+  const Config c = load_deck(path, {});
+  EXPECT_EQ(c.source, path);
+  EXPECT_EQ(c.name, "beam");
+  EXPECT_EQ(c.dt, 1e-3);
+  EXPECT_EQ(c.end_time, 0.5);
+  EXPECT_EQ(c.gravity, (Vec3d{0, 0, -9.81}));
+  EXPECT_EQ(c.voxel_size, 0.05);
+  EXPECT_EQ(c.padding, 2);  // written 2.0
+  ASSERT_EQ(c.geometry.size(), 5u);
+  EXPECT_EQ(c.geometry[0].type, "box");
+  EXPECT_EQ(c.geometry[0].lo, (Vec3d{0, 0, 0}));
+  EXPECT_EQ(c.geometry[0].hi, (Vec3d{1, 0.2, 0.2}));
+  EXPECT_EQ(c.geometry[1].type, "sphere");
+  EXPECT_EQ(c.geometry[1].center, (Vec3d{1, 0.1, 0.1}));
+  EXPECT_EQ(c.geometry[1].radius, 0.15);
+  EXPECT_EQ(c.geometry[2].type, "capsule");
+  EXPECT_EQ(c.geometry[2].a, (Vec3d{0, 0.1, 0.1}));
+  EXPECT_EQ(c.geometry[2].b, (Vec3d{0, 0.1, 0.5}));
+  EXPECT_EQ(c.geometry[2].radius, 0.05);
+  EXPECT_EQ(c.geometry[3].type, "mesh");
+  // Relative to the deck's folder, stored absolute.
+  EXPECT_EQ(fs::path(c.geometry[3].file), fs::absolute(scratch_dir() / "assets/bunny.obj"));
+  EXPECT_EQ(c.geometry[3].scale, 2.0);  // written 2
+  EXPECT_EQ(c.geometry[3].translate, (Vec3d{0.5, 0, 0}));
+  EXPECT_EQ(c.geometry[4].type, "vdb");
+  EXPECT_EQ(fs::path(c.geometry[4].file), fs::absolute(scratch_dir() / "assets/cloud.vdb"));
+  EXPECT_EQ(c.geometry[4].grid, "surface");
+  EXPECT_EQ(c.geometry[4].scale, 1.0);
+  EXPECT_EQ(c.material.model, "corotated");
+  EXPECT_EQ(c.material.target, "arap");
+  EXPECT_EQ(c.material.youngs_modulus, 1e6);
+  EXPECT_EQ(c.material.poisson_ratio, 0.3);
+  EXPECT_EQ(c.material.density, 1000.0);
+  EXPECT_EQ(c.solver.relaxation, "cg");
+  EXPECT_EQ(c.solver.jacobi_omega, 0.8);
+  EXPECT_EQ(c.solver.max_sweeps, 200);
+  EXPECT_EQ(c.solver.inner_tolerance, 1e-7);
+  EXPECT_EQ(c.solver.subspace_modes, 24);
+  EXPECT_EQ(c.solver.max_outer, 5);
+  EXPECT_EQ(c.solver.outer_tolerance, 1e-4);
+  EXPECT_EQ(c.solver.accuracy_tolerance, 1e-2);
+  EXPECT_EQ(c.solver.max_extra_outer, 3);
+  ASSERT_EQ(c.fixed.size(), 1u);
+  expect_box(c.fixed[0].region, {-0.1, -0.1, -0.1}, {0.05, 0.3, 0.3});
+  ASSERT_EQ(c.forces.size(), 1u);
+  expect_box(c.forces[0].region, {0.95, -0.1, -0.1}, {1.1, 0.3, 0.3});
+  EXPECT_EQ(c.forces[0].force, (Vec3d{0, 0, -50}));
+  EXPECT_EQ(c.forces[0].start, 0.1);
+  EXPECT_EQ(c.forces[0].end, 0.3);
+  EXPECT_EQ(c.output.dir, "out/beam");
+  EXPECT_EQ(c.output.frame_interval, 0.01);
+  EXPECT_EQ(c.output.checkpoint_every, 100);
+  EXPECT_EQ(c.output.checkpoint_keep, 3);
+  EXPECT_EQ(c.output.progress_interval, 5.0);
+}
+
+TEST(Deck, MinimalDeckTakesDefaults) {
+  const Config c = parse_deck(kMinimalDeck, "<minimal>", ".", {});
+  const Config defaults;
+  EXPECT_EQ(c.source, "<minimal>");
+  EXPECT_EQ(c.name, "gen4d");
+  EXPECT_EQ(c.gravity, (Vec3d{0, 0, -9.81}));
+  EXPECT_EQ(c.padding, 1);
+  EXPECT_EQ(c.material.model, "corotated");
+  EXPECT_EQ(c.material.target, "analytic");
+  EXPECT_TRUE(c.fixed.empty());
+  EXPECT_TRUE(c.forces.empty());
+  Config expected = c;
+  expected.solver = defaults.solver;
+  expected.output = defaults.output;
+  expect_same(c, expected);
+  EXPECT_EQ(c.solver.max_sweeps, 400);
+  EXPECT_EQ(c.output.dir, "gen4d-out");
+}
+
+TEST(Deck, OverridesChangeValues) {
+  const std::string path = write_deck("override.toml", kFullDeck);
+  const Config c =
+      load_deck(path, {"material.youngs_modulus=2e5", "solver.relaxation=jacobi",
+                       "simulation.gravity=[0,0,-1]", "geometry.1.radius=0.3", "force.0.end=0.45",
+                       "output.dir=out/run 2", "simulation.name=123", "simulation.dt=.002",
+                       " material.density = 800 ", "solver.max_sweeps=300.0"});
+  EXPECT_EQ(c.material.youngs_modulus, 2e5);
+  EXPECT_EQ(c.solver.relaxation, "jacobi");
+  EXPECT_EQ(c.gravity, (Vec3d{0, 0, -1}));
+  EXPECT_EQ(c.geometry[1].radius, 0.3);
+  EXPECT_EQ(c.forces[0].end, 0.45);
+  EXPECT_EQ(c.output.dir, "out/run 2");
+  EXPECT_EQ(c.name, "123");
+  EXPECT_EQ(c.dt, 0.002);
+  EXPECT_EQ(c.material.density, 800.0);
+  EXPECT_EQ(c.solver.max_sweeps, 300);
+  // Untouched values stay.
+  EXPECT_EQ(c.material.poisson_ratio, 0.3);
+  EXPECT_EQ(c.geometry[1].center, (Vec3d{1, 0.1, 0.1}));
+}
+
+TEST(Deck, QuotedStringsAndLastOverrideWins) {
+  const Config c = parse_deck(
+      kFullDeck, "<deck>", scratch_dir().string(),
+      {"solver.relaxation=\"jacobi\"", "solver.relaxation='cg'", "material.target=analytic"});
+  EXPECT_EQ(c.solver.relaxation, "cg");
+  EXPECT_EQ(c.material.target, "analytic");
+}
+
+TEST(Deck, OverridesAddKeysTablesAndElements) {
+  const Config c =
+      parse_deck(kMinimalDeck, "<minimal>", ".",
+                 {"output.checkpoint_every=5", "solver.max_sweeps=50", "material.target=arap",
+                  "fixed.0.lo=[-1,-1,-1]", "fixed.0.hi=[1,1,-0.4]", "force.0.lo=[-1,-1,0.4]",
+                  "force.0.hi=[1,1,1]", "force.0.force=[0,0,2.5]", "force.0.start=0.5",
+                  "geometry.1.type=box", "geometry.1.lo=[0,0,0]", "geometry.1.hi=[1,1,1]"});
+  EXPECT_EQ(c.output.checkpoint_every, 5);
+  EXPECT_EQ(c.solver.max_sweeps, 50);
+  EXPECT_EQ(c.material.target, "arap");
+  ASSERT_EQ(c.fixed.size(), 1u);
+  expect_box(c.fixed[0].region, {-1, -1, -1}, {1, 1, -0.4});
+  ASSERT_EQ(c.forces.size(), 1u);
+  EXPECT_EQ(c.forces[0].force, (Vec3d{0, 0, 2.5}));
+  EXPECT_EQ(c.forces[0].start, 0.5);
+  EXPECT_EQ(c.forces[0].end, ForceConfig{}.end);  // forever
+  ASSERT_EQ(c.geometry.size(), 2u);
+  EXPECT_EQ(c.geometry[1].type, "box");
+  EXPECT_EQ(c.geometry[1].hi, (Vec3d{1, 1, 1}));
+}
+
+TEST(Deck, RoundTripReproducesConfig) {
+  const std::string path = write_deck("roundtrip.toml", kFullDeck);
+  const Config first = load_deck(path, {"material.poisson_ratio=0.1", "output.frame_interval=0.3",
+                                        "simulation.gravity=[0.1, 0.2, -9.80665]"});
+  // The text holds the overrides, so no overrides are needed to restart, and absolute asset
+  // paths, so the restart may run from another folder.
+  const Config again = parse_deck(first.text, "<restart>", "/", {});
+  expect_same(first, again);
+  EXPECT_EQ(again.material.poisson_ratio, 0.1);
+  EXPECT_EQ(again.output.frame_interval, 0.3);
+  EXPECT_EQ(again.text, first.text);
+  // Numbers are stored in their shortest exact form, so the stored deck reads like the input.
+  EXPECT_NE(first.text.find("\nvoxel_size = 0.05\n"), std::string::npos) << first.text;
+  EXPECT_NE(first.text.find("\npoisson_ratio = 0.1\n"), std::string::npos) << first.text;
+  EXPECT_NE(first.text.find("\ngravity = [0.1, 0.2, -9.80665]\n"), std::string::npos);
+  EXPECT_EQ(first.text.find("[[force]]"), first.text.rfind("[[force]]"));
+
+  const Config minimal = parse_deck(kMinimalDeck, "<minimal>", ".", {"domain.padding=3"});
+  expect_same(minimal, parse_deck(minimal.text, "<restart>", ".", {}));
+  EXPECT_EQ(minimal.padding, 3);
+}
+
+std::string read_readme() {
+  std::ifstream in(fs::path(GEN4D_SOURCE_DIR) / "inputs" / "README.md");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+TEST(DeckDocs, ReadmeDocumentsEveryKey) {
+  const std::string readme = read_readme();
+  ASSERT_FALSE(readme.empty());
+  for (const auto& table : deck::schema()) {
+    const std::string name(table.name);
+    const std::string header = table.is_array ? "`[[" + name + "]]`" : "`[" + name + "]`";
+    EXPECT_NE(readme.find("## " + header), std::string::npos) << header;
+    // Each key has a row in its table's section (sections run from one "## " to the next).
+    const auto begin = readme.find("## " + header);
+    const auto end = readme.find("\n## ", begin + 1);
+    const std::string section = readme.substr(begin, end - begin);
+    for (const auto& key : table.keys)
+      EXPECT_NE(section.find("\n| `" + std::string(key.name) + "` |"), std::string::npos)
+          << name << "." << key.name;
+  }
+}
+
+TEST(DeckDocs, ReadmeMinimalDeckIsValid) {
+  const std::string readme = read_readme();
+  const auto begin = readme.find("```toml\n");
+  ASSERT_NE(begin, std::string::npos);
+  const auto end = readme.find("```", begin + 8);
+  const Config c = parse_deck(readme.substr(begin + 8, end - begin - 8), "README minimal", ".");
+  EXPECT_EQ(c.geometry.size(), 1u);
+  EXPECT_EQ(c.fixed.size(), 1u);
+}
+
+}  // namespace
+}  // namespace gen4d::test
