@@ -155,14 +155,14 @@ TEST(Deck, MinimalDeckTakesDefaults) {
   EXPECT_EQ(c.gravity, (Vec3d{0, 0, -9.81}));
   EXPECT_EQ(c.padding, 1);
   EXPECT_EQ(c.material.model, "corotated");
-  EXPECT_EQ(c.material.target, "analytic");
+  EXPECT_EQ(c.material.target, "arap");
   EXPECT_TRUE(c.fixed.empty());
   EXPECT_TRUE(c.forces.empty());
   Config expected = c;
   expected.solver = defaults.solver;
   expected.output = defaults.output;
   expect_same(c, expected);
-  EXPECT_EQ(c.solver.max_sweeps, 400);
+  EXPECT_EQ(c.solver.max_sweeps, 100);
   EXPECT_EQ(c.output.dir, "gen4d-out");
 }
 
@@ -271,6 +271,16 @@ TEST(DeckDocs, ReadmeMinimalDeckIsValid) {
   const Config c = parse_deck(readme.substr(begin + 8, end - begin - 8), "README minimal", ".");
   EXPECT_EQ(c.geometry.size(), 1u);
   EXPECT_EQ(c.fixed.size(), 1u);
+}
+
+TEST(DeckDocs, ShippedDecksAreValid) {
+  int decks = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(GEN4D_SOURCE_DIR) / "inputs")) {
+    if (entry.path().extension() != ".toml") continue;
+    ++decks;
+    EXPECT_NO_THROW(load_deck(entry.path().string(), {})) << entry.path();
+  }
+  if (decks == 0) GTEST_SKIP() << "no decks in inputs/";
 }
 
 }  // namespace

@@ -5,7 +5,6 @@
 
 #include "core/Error.hpp"
 #include "geometry/Shape.hpp"
-#include "geometry/Voxelize.hpp"
 
 namespace g = gen4d::geometry;
 using Eigen::Vector3d;
@@ -25,7 +24,9 @@ double voxel_volume(const g::Shape& s, double h) {
   return static_cast<double>(g::count_solid(occ)) * h * h * h;
 }
 
-double ball_volume(double r) { return 4.0 / 3.0 * kPi * r * r * r; }
+double ball_volume(double r) {
+  return 4.0 / 3.0 * kPi * r * r * r;
+}
 
 gen4d::GeometryConfig sphere_config(gen4d::Vec3d c, double r) {
   gen4d::GeometryConfig g;
@@ -33,6 +34,36 @@ gen4d::GeometryConfig sphere_config(gen4d::Vec3d c, double r) {
   g.center = c;
   g.radius = r;
   return g;
+}
+
+// Splits an n-cell grid into 2x2x2 rank boxes, each grown by one ghost layer (so edge boxes
+// reach index -1 and n), and counts cells where a box's voxelization differs from the full
+// grid's (cells outside the grid must be empty).
+long subbox_mismatches(const g::Shape& shape, const Vector3d& origin, double h,
+                       const std::array<long, 3>& n) {
+  std::vector<std::uint8_t> full, part;
+  g::voxelize(shape, origin, h, {0, 0, 0}, n, full);
+  EXPECT_GT(g::count_solid(full), 0);
+  long mismatches = 0;
+  for (int b = 0; b < 8; ++b) {
+    std::array<long, 3> lo{}, hi{}, m{};
+    for (int d = 0; d < 3; ++d) {
+      const long half = n[d] / 2;
+      lo[d] = ((b >> d) & 1 ? half : 0) - 1;
+      hi[d] = ((b >> d) & 1 ? n[d] : half) + 1;
+      m[d] = hi[d] - lo[d];
+    }
+    g::voxelize(shape, origin, h, lo, hi, part);
+    EXPECT_EQ(part.size(), static_cast<std::size_t>(m[0] * m[1] * m[2]));
+    for (long k = lo[2]; k < hi[2]; ++k)
+      for (long j = lo[1]; j < hi[1]; ++j)
+        for (long i = lo[0]; i < hi[0]; ++i) {
+          const bool in_grid = i >= 0 && j >= 0 && k >= 0 && i < n[0] && j < n[1] && k < n[2];
+          const std::uint8_t expected = in_grid ? full[(k * n[1] + j) * n[0] + i] : 0;
+          mismatches += part[((k - lo[2]) * m[1] + (j - lo[1])) * m[0] + (i - lo[0])] != expected;
+        }
+  }
+  return mismatches;
 }
 
 }  // namespace
@@ -46,8 +77,8 @@ TEST(GeometryShapes, BoxAlignedWithCellFacesIsExact) {
   g::voxelize(box, origin, h, {0, 0, 0}, {20, 30, 10}, occ);
   ASSERT_EQ(occ.size(), 20u * 30u * 10u);
   EXPECT_EQ(g::count_solid(occ), 10 * 20 * 3);
-  EXPECT_EQ(occ[(5 * 30 + 4) * 20 + 3], 1);   // first solid cell
-  EXPECT_EQ(occ[(5 * 30 + 4) * 20 + 2], 0);   // its -x neighbour
+  EXPECT_EQ(occ[(5 * 30 + 4) * 20 + 3], 1);    // first solid cell
+  EXPECT_EQ(occ[(5 * 30 + 4) * 20 + 2], 0);    // its -x neighbour
   EXPECT_EQ(occ[(7 * 30 + 23) * 20 + 12], 1);  // last solid cell
   EXPECT_EQ(occ[(8 * 30 + 23) * 20 + 12], 0);  // its +z neighbour
 }
@@ -106,8 +137,7 @@ TEST(GeometryShapes, FactoryBuildsEveryPrimitive) {
   capsule.b = {-2, 0, 0.5};
   capsule.radius = 0.1;
   const auto shape = g::make_shape({box, sphere_config({0, 0, 0}, 0.2), capsule});
-  const double exact = 0.5 * 0.4 * 0.3 + ball_volume(0.2) +
-                       kPi * 0.01 * 0.5 + ball_volume(0.1);
+  const double exact = 0.5 * 0.4 * 0.3 + ball_volume(0.2) + kPi * 0.01 * 0.5 + ball_volume(0.1);
   EXPECT_NEAR(voxel_volume(*shape, 0.01), exact, 0.02 * exact);
   EXPECT_TRUE(shape->inside(Vector3d(2.25, 0.2, 0.15)));
   EXPECT_TRUE(shape->inside(Vector3d(-2, 0, 0.25)));
@@ -117,7 +147,15 @@ TEST(GeometryShapes, FactoryBuildsEveryPrimitive) {
 TEST(GeometryShapes, FactoryRejectsDegenerateInput) {
   EXPECT_THROW(g::make_shape({}), gen4d::InputError);
   EXPECT_THROW(g::make_shape({sphere_config({0, 0, 0}, 0)}), gen4d::InputError);
-  EXPECT_THROW(g::make_shape({sphere_config({0, 0, 0}, -1)}), gen4d::InputError);
+  try {
+    g::make_shape({sphere_config({0, 0, 0}, 1), sphere_config({0, 0, 0}, -1)});
+    FAIL() << "negative radius accepted";
+  } catch (const gen4d::InputError& e) {
+    // The message points at the deck's second [[geometry]] table.
+    EXPECT_NE(std::string(e.what()).find("[[geometry]] #2 (sphere)"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("radius"), std::string::npos) << e.what();
+  }
   gen4d::GeometryConfig box;
   box.type = "box";
   box.lo = {0, 0, 0};
@@ -144,33 +182,18 @@ TEST(GeometryShapes, FactoryRejectsDegenerateInput) {
 }
 
 TEST(GeometryShapes, SubBoxWithGhostsMatchesFullVoxelization) {
-  const auto shape = g::make_shape({sphere_config({0.5, 0.5, 0.5}, 0.3),
-                                    sphere_config({0.8, 0.45, 0.6}, 0.17)});
-  const Vector3d origin(0, 0, 0);
-  const double h = 1.0 / 40;
-  const std::array<long, 3> n{40, 40, 40};
-  std::vector<std::uint8_t> full;
-  g::voxelize(*shape, origin, h, {0, 0, 0}, n, full);
-  // A 2x2x2 split of the grid; each rank box grows by one ghost layer, so boundary boxes
-  // reach index -1 and n, outside the domain.
-  for (long bz = 0; bz < 2; ++bz)
-    for (long by = 0; by < 2; ++by)
-      for (long bx = 0; bx < 2; ++bx) {
-        const std::array<long, 3> lo{bx * 20 - 1, by * 20 - 1, bz * 20 - 1};
-        const std::array<long, 3> hi{bx * 20 + 21, by * 20 + 21, bz * 20 + 21};
-        std::vector<std::uint8_t> part;
-        g::voxelize(*shape, origin, h, lo, hi, part);
-        ASSERT_EQ(part.size(), 22u * 22u * 22u);
-        long mismatches = 0;
-        for (long k = lo[2]; k < hi[2]; ++k)
-          for (long j = lo[1]; j < hi[1]; ++j)
-            for (long i = lo[0]; i < hi[0]; ++i) {
-              const bool in_grid = i >= 0 && j >= 0 && k >= 0 && i < n[0] && j < n[1] && k < n[2];
-              const std::uint8_t expected = in_grid ? full[(k * n[1] + j) * n[0] + i] : 0;
-              mismatches += part[((k - lo[2]) * 22 + (j - lo[1])) * 22 + (i - lo[0])] != expected;
-            }
-        EXPECT_EQ(mismatches, 0) << "box " << bx << by << bz;
-      }
+  const auto spheres =
+      g::make_shape({sphere_config({0.5, 0.5, 0.5}, 0.3), sphere_config({0.8, 0.45, 0.6}, 0.17)});
+  EXPECT_EQ(subbox_mismatches(*spheres, Vector3d(0, 0, 0), 1.0 / 40, {40, 40, 40}), 0);
+  // An octahedron mesh whose vertices sit exactly on cell centres: the hardest ties.
+  g::Mesh octahedron;
+  octahedron.vertices = {{0.6, 0.5, 0.5},  {0.1, 0.5, 0.5},  {0.35, 0.8, 0.5},
+                         {0.35, 0.2, 0.5}, {0.35, 0.5, 0.8}, {0.35, 0.5, 0.2}};
+  octahedron.triangles = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
+                          {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+  const g::TriangleMesh mesh(octahedron, 1.0, Vector3d(0.1, 0, 0.05), "octahedron");
+  EXPECT_GT(g::signed_volume(mesh.mesh()), 0);
+  EXPECT_EQ(subbox_mismatches(mesh, Vector3d::Constant(-0.0125), 1.0 / 40, {38, 40, 36}), 0);
 }
 
 TEST(GeometryShapes, EmptyRangeAndCountSolid) {

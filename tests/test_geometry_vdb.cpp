@@ -3,13 +3,12 @@
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/LevelSetSphere.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
 #include "core/Error.hpp"
 #include "geometry/Shape.hpp"
-#include "geometry/VdbLevelSet.hpp"
-#include "geometry/Voxelize.hpp"
 
 namespace g = gen4d::geometry;
 namespace fs = std::filesystem;
@@ -64,6 +63,7 @@ void expect_input_error(F f, const std::vector<std::string>& needles) {
     ADD_FAILURE() << "no InputError; expected one mentioning " << needles.front();
   } catch (const gen4d::InputError& e) {
     const std::string msg = e.what();
+    std::printf("  InputError: %s\n", msg.c_str());
     EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
     for (const auto& n : needles) EXPECT_NE(msg.find(n), std::string::npos) << msg;
   }
@@ -94,6 +94,8 @@ TEST(GeometryVdb, SphereVolumeByNameAndByDefault) {
     // 12 cells per radius: centre sampling error well under 1%; the level set's own
     // interpolation error (< 0.005 in radius, ~1.5% in volume at worst) stays inside 2%.
     const double v = voxel_volume(shape, kRadius / 12);
+    std::printf("vdb grid '%s': voxel volume / ball volume - 1 = %.2f%%\n", name.c_str(),
+                100 * (v / exact - 1));
     EXPECT_NEAR(v, exact, 0.02 * exact) << "grid name '" << name << "'";
   }
 }

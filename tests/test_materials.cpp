@@ -175,8 +175,7 @@ TEST(Materials, CorotatedStressDefinedAtZeroVolume) {
 }
 
 TEST(Materials, RestAndRotationsAreStressFree) {
-  expect_rest_and_rotation_free(gm::FixedCorotated::from_young_poisson(1e6, 0.3), 1e6,
-                                "corotated");
+  expect_rest_and_rotation_free(gm::FixedCorotated::from_young_poisson(1e6, 0.3), 1e6, "corotated");
   expect_rest_and_rotation_free(gm::Arap{1e6}, 1e6, "arap");
 }
 
@@ -207,10 +206,11 @@ TEST(Materials, ProjectionStiffnessBoundsTheStressJacobian) {
       const Mat3 F = random_rotation(rng) * gm::diag3(s) * random_rotation(rng);
       worst_ratio = std::max(worst_ratio, max_stiffness_eigenvalue(material, F) / k);
     }
-    std::printf("[ materials ] corotated nu=%.2f: k = 2mu + %.3f lambda, max eig(dP/dF)/k = %.4f"
-                " over |sigma-1| <= %.2f\n",
-                nu, (k - 2 * material.mu) / (material.lambda != 0 ? material.lambda : 1),
-                worst_ratio, gm::kProjectionDesignStretch);
+    std::printf(
+        "[ materials ] corotated nu=%.2f: k = 2mu + %.3f lambda, max eig(dP/dF)/k = %.4f"
+        " over |sigma-1| <= %.2f\n",
+        nu, (k - 2 * material.mu) / (material.lambda != 0 ? material.lambda : 1), worst_ratio,
+        gm::kProjectionDesignStretch);
     EXPECT_LE(worst_ratio, 1 + 1e-7) << nu;
   }
   const gm::Arap arap{1e6};

@@ -20,7 +20,9 @@ namespace {
 
 using RowMat = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
 
-Eigen::Matrix3d to_eigen(const Mat3& A) { return Eigen::Map<const RowMat>(A.a); }
+Eigen::Matrix3d to_eigen(const Mat3& A) {
+  return Eigen::Map<const RowMat>(A.a);
+}
 
 Mat3 from_eigen(const Eigen::Matrix3d& A) {
   Mat3 M;
@@ -116,10 +118,11 @@ TEST(Svd3, ScaleInvariance) {
 TEST(Svd3, RepeatedZeroAndTinySingularValues) {
   std::mt19937_64 rng(3);
   const std::vector<Vec3> spectra = {
-      {{1, 1, 1}},   {{2, 2, 1}},      {{2, 1, 1}},         {{1, 1, 0}},       {{1, 0, 0}},
-      {{0, 0, 0}},   {{3, 2, 0}},      {{1, 1, 1e-12}},     {{1, 0.5, 1e-12}}, {{1, 1e-12, 1e-12}},
-      {{1, 1, -1}},  {{2, 1, -1}},     {{3, 2, -1e-12}},    {{1, 1e-6, -1e-6}}, {{5, 5, -5}},
-      {{1 + 1e-9, 1, 1 - 1e-9}}, {{1e8, 1, 1e-4}}};
+      {{1, 1, 1}},       {{2, 2, 1}},         {{2, 1, 1}},  {{1, 1, 0}},
+      {{1, 0, 0}},       {{0, 0, 0}},         {{3, 2, 0}},  {{1, 1, 1e-12}},
+      {{1, 0.5, 1e-12}}, {{1, 1e-12, 1e-12}}, {{1, 1, -1}}, {{2, 1, -1}},
+      {{3, 2, -1e-12}},  {{1, 1e-6, -1e-6}},  {{5, 5, -5}}, {{1 + 1e-9, 1, 1 - 1e-9}},
+      {{1e8, 1, 1e-4}}};
   for (const Vec3& sigma : spectra) {
     SvdErrors errors;
     double worst_sigma = 0;  // against the exact singular values, relative to sigma_0
@@ -130,10 +133,11 @@ TEST(Svd3, RepeatedZeroAndTinySingularValues) {
       Vec3 s;
       gm::svd3(F, U, s, V);
       const double top = std::abs(sigma[0]) > 0 ? std::abs(sigma[0]) : 1.0;
-      for (int k = 0; k < 3; ++k) worst_sigma = std::max(worst_sigma, std::abs(s[k] - sigma[k]) / top);
+      for (int k = 0; k < 3; ++k)
+        worst_sigma = std::max(worst_sigma, std::abs(s[k] - sigma[k]) / top);
     }
     char label[96];
-    std::snprintf(label, sizeof label, "sigma (%g, %g, %g)", sigma[0], sigma[1], sigma[2]);
+    std::snprintf(label, sizeof label, "sigma (%.10g, %.10g, %.10g)", sigma[0], sigma[1], sigma[2]);
     errors.expect_accurate(label);
     // The spectra above are sorted and signed as svd3 must return them, so compare signed values.
     EXPECT_LT(worst_sigma, 1e-13) << label;
@@ -208,7 +212,7 @@ TEST(Svd3, PolarRotationIsUVt) {
   for (int i = 0; i < 1000; ++i) {
     const Mat3 Q = random_rotation(rng);
     const Mat3 S = gm::diag3(Vec3{{2.0, 1.5, 0.5}});
-    const Mat3 R = gm::polar_rotation(Q * gm::transpose(Q) * Q * S);  // F = Q S, symmetric stretch
+    const Mat3 R = gm::polar_rotation(Q * S);  // F = Q S: rotation times stretch
     EXPECT_LT(gm::frobenius_norm(R - Q), 1e-13);
     // Inverted F: the closest proper rotation, i.e. the rotation of the signed SVD.
     const Mat3 Rinv = gm::polar_rotation(Q * gm::diag3(Vec3{{2.0, 1.5, -0.5}}));
@@ -221,7 +225,7 @@ TEST(Svd3, FixedSweepCountHasMargin) {
   // level (cosine of every pair) on hard cases: clustered, graded and random spectra.
   std::mt19937_64 rng(7);
   const std::vector<Vec3> spectra = {{{1, 1 - 1e-7, 1e-3}}, {{1, 0.999, 0.998}}, {{1e4, 1, 1e-4}},
-                                     {{1, 0.5, 0.25}},       {{1, 1, 1e-8}},      {{1e8, 1, 1e-4}}};
+                                     {{1, 0.5, 0.25}},      {{1, 1, 1e-8}},      {{1e8, 1, 1e-4}}};
   double worst = 0;
   for (int i = 0; i < 20000; ++i) {
     Mat3 B = i % 2 ? random_uniform(rng, 1.0)

@@ -60,8 +60,8 @@ void reject_unknown_tables(const toml::table& root, const Locator& loc) {
     if (hint.empty() && t.find(name))
       hint = fmt::format(" (did you mean '{}.{}' under [{}]?)", t.name, name, t.name);
   throw InputError(fmt::format("{}: unknown {} '{}'{}", loc.at(first, name),
-                               first->is_table() || first->is_array() ? "table" : "key", name,
-                               hint));
+                               first->is_table() || first->is_array_of_tables() ? "table" : "key",
+                               name, hint));
 }
 
 //! The [name] table, or an absent section when the deck has none.

@@ -11,7 +11,7 @@
 #include "core/Deck.hpp"
 #include "core/Error.hpp"
 #include "core/Log.hpp"
-#include "geometry/Voxelize.hpp"
+#include "geometry/Shape.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/FrameWriter.hpp"
 

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -21,6 +22,9 @@ namespace gen4d::geometry {
 namespace {
 
 std::string read_file_bytes(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw InputError(fmt::format("{}: is a directory, not a mesh file", path));
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(fmt::format("{}: cannot open mesh file", path));
   std::ostringstream buf;
@@ -31,7 +35,7 @@ std::string read_file_bytes(const std::string& path) {
 
 // Quotes a token from the file for an error message: short and printable, so the message
 // stays one readable line whatever the file holds.
-std::string quoted(const std::string& token) {
+std::string quote_token(const std::string& token) {
   std::string out = token.substr(0, 40);
   for (char& c : out)
     if (!std::isprint(static_cast<unsigned char>(c))) c = '?';
@@ -80,7 +84,7 @@ class LineReader {
 struct ObjState {
   const std::string& path;
   Mesh mesh;
-  long max_index = 0;      // largest positive index seen, checked once all vertices are known
+  long max_index = 0;  // largest positive index seen, checked once all vertices are known
   long max_index_line = 0;
 };
 
@@ -90,8 +94,8 @@ void obj_vertex(ObjState& st, const std::vector<std::string>& tok, long line) {
   Eigen::Vector3d v;
   for (int d = 0; d < 3; ++d)
     if (!parse_finite(tok[d + 1], v[d]))
-      throw InputError(fmt::format("{}:{}: bad number {} in vertex", st.path, line,
-                                   quoted(tok[d + 1])));
+      throw InputError(
+          fmt::format("{}:{}: bad number {} in vertex", st.path, line, quote_token(tok[d + 1])));
   st.mesh.vertices.push_back(v);
 }
 
@@ -103,7 +107,7 @@ int obj_index(ObjState& st, const std::string& token, long line) {
   errno = 0;
   const long idx = std::strtol(begin, &end, 10);
   if (end == begin || *end != '\0' || errno == ERANGE || idx == 0 || idx > INT32_MAX)
-    throw InputError(fmt::format("{}:{}: bad face index {}", st.path, line, quoted(token)));
+    throw InputError(fmt::format("{}:{}: bad face index {}", st.path, line, quote_token(token)));
   const long nverts = static_cast<long>(st.mesh.vertices.size());
   if (idx < 0) {
     // Relative indices count back from the vertices read so far.
@@ -158,12 +162,12 @@ Mesh parse_binary_stl(const std::string& path, const std::string& bytes) {
   const std::size_t expected = 84 + 50 * static_cast<std::size_t>(count);
   if (bytes.size() < expected)
     throw InputError(fmt::format(
-        "{}: truncated binary STL: header declares {} triangles, data ends in triangle {}",
-        path, count, (bytes.size() - 84) / 50));
+        "{}: truncated binary STL: header declares {} triangles, data ends in triangle {}", path,
+        count, (bytes.size() - 84) / 50));
   if (bytes.size() > expected)
-    throw InputError(fmt::format(
-        "{}: binary STL header declares {} triangles but {} bytes follow them", path, count,
-        bytes.size() - expected));
+    throw InputError(
+        fmt::format("{}: binary STL header declares {} triangles but {} bytes follow them", path,
+                    count, bytes.size() - expected));
   Mesh mesh;
   mesh.vertices.reserve(3 * static_cast<std::size_t>(count));
   mesh.triangles.reserve(count);
@@ -192,8 +196,8 @@ Mesh parse_ascii_stl(const std::string& path, const std::string& bytes) {
   bool in_facet = false;
   int corners = 0;
   auto fail = [&](const std::string& what) {
-    return InputError(fmt::format("{}:{}: triangle {}: {}", path, lines.number(),
-                                  mesh.triangles.size(), what));
+    return InputError(
+        fmt::format("{}:{}: triangle {}: {}", path, lines.number(), mesh.triangles.size(), what));
   };
   while (lines.next(line)) {
     const auto tok = split_whitespace(line);
@@ -212,7 +216,7 @@ Mesh parse_ascii_stl(const std::string& path, const std::string& bytes) {
       if (tok.size() != 4) throw fail("vertex needs 3 coordinates");
       Eigen::Vector3d v;
       for (int d = 0; d < 3; ++d)
-        if (!parse_finite(tok[d + 1], v[d])) throw fail("bad number " + quoted(tok[d + 1]));
+        if (!parse_finite(tok[d + 1], v[d])) throw fail("bad number " + quote_token(tok[d + 1]));
       mesh.vertices.push_back(v);
       ++corners;
     } else if (key == "endfacet") {
@@ -221,7 +225,7 @@ Mesh parse_ascii_stl(const std::string& path, const std::string& bytes) {
       mesh.triangles.push_back({base, base + 1, base + 2});
       in_facet = false;
     } else {
-      throw fail("unexpected keyword " + quoted(key));
+      throw fail("unexpected keyword " + quote_token(key));
     }
   }
   if (in_facet) throw fail("file ends inside a facet");
@@ -248,9 +252,8 @@ Mesh read_obj(const std::string& path) {
     // vt, vn, g, o, s, usemtl, mtllib, l, ... carry nothing a solid needs.
   }
   if (st.max_index > static_cast<long>(st.mesh.vertices.size()))
-    throw InputError(fmt::format("{}:{}: face index {} out of range (file has {} vertices)",
-                                 path, st.max_index_line, st.max_index,
-                                 st.mesh.vertices.size()));
+    throw InputError(fmt::format("{}:{}: face index {} out of range (file has {} vertices)", path,
+                                 st.max_index_line, st.max_index, st.mesh.vertices.size()));
   if (st.mesh.triangles.empty()) throw InputError(fmt::format("{}: no faces in OBJ", path));
   return std::move(st.mesh);
 }
@@ -271,8 +274,8 @@ Mesh read_stl(const std::string& path) {
   } else if (looks_like_text(bytes)) {
     mesh = parse_ascii_stl(path, bytes);
   } else {
-    throw InputError(fmt::format("{}: not an STL file ({} bytes, no 'solid' keyword)", path,
-                                 bytes.size()));
+    throw InputError(
+        fmt::format("{}: not an STL file ({} bytes, no 'solid' keyword)", path, bytes.size()));
   }
   if (mesh.triangles.empty()) throw InputError(fmt::format("{}: no triangles in STL", path));
   return mesh;
@@ -288,7 +291,7 @@ Mesh read_mesh(const std::string& path) {
   if (ext == ".obj") return read_obj(path);
   if (ext == ".stl") return read_stl(path);
   throw InputError(fmt::format("{}: unsupported mesh format {} (expected .obj or .stl)", path,
-                               quoted(ext)));
+                               quote_token(ext)));
 }
 
 double signed_volume(const Mesh& mesh, const Eigen::Vector3d& apex) {

@@ -1,12 +1,16 @@
-//! Solid shapes as point-membership tests: primitives, unions, meshes, level sets.
+//! Solids as point-membership tests (primitives, unions, meshes, level sets) and voxelization.
 #pragma once
 
 #include <Eigen/Core>
 
+#include <array>
+#include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "core/Config.hpp"
+#include "geometry/Mesh.hpp"
 
 namespace gen4d::geometry {
 
@@ -86,12 +90,73 @@ class Union : public Shape {
   Aabb bounds_;
 };
 
+//! Inside iff the generalized winding number is >= 1/2, which closes small holes and keeps
+//! separate parts of open meshes sensible. World point = scale * file point + translate.
+class TriangleMesh : public Shape {
+ public:
+  //! `source` names the mesh in error messages. Throws InputError when the mesh has no
+  //! triangles or scale is not positive.
+  TriangleMesh(Mesh mesh, double scale, const Eigen::Vector3d& translate,
+               const std::string& source);
+  bool inside(const Eigen::Vector3d& p) const override;
+  Aabb bounds() const override { return bounds_; }
+  double winding_number(const Eigen::Vector3d& p) const;
+  const Mesh& mesh() const { return mesh_; }  //!< transformed to world space
+
+ private:
+  Mesh mesh_;
+  std::unique_ptr<WindingNumberTree> tree_;
+  Aabb bounds_;
+};
+
+//! Reads an OBJ or STL file and wraps it as a TriangleMesh.
+std::unique_ptr<TriangleMesh> load_triangle_mesh(const std::string& path, double scale,
+                                                 const Eigen::Vector3d& translate);
+
+//! Inside iff the trilinearly interpolated signed distance is < 0. World point =
+//! scale * VDB world point + translate.
+class VdbLevelSet : public Shape {
+ public:
+  //! Reads `grid` from `path` (empty = the first float level-set grid). Throws InputError
+  //! for a missing or unreadable file, an unknown grid (listing the names present), or a
+  //! grid that is not a float level set.
+  VdbLevelSet(const std::string& path, const std::string& grid, double scale,
+              const Eigen::Vector3d& translate);
+  ~VdbLevelSet() override;
+  bool inside(const Eigen::Vector3d& p) const override;
+  Aabb bounds() const override { return bounds_; }
+  double signed_distance(const Eigen::Vector3d& p) const;  //!< in world units
+  const std::string& grid_name() const { return grid_name_; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  std::string grid_name_;
+  double scale_;
+  Eigen::Vector3d translate_;
+  Aabb bounds_;
+};
+
 //! Builds the union of the deck's geometry parts. Mesh and VDB parts are scaled, then
 //! translated; their file paths are opened as given. Throws InputError on an empty list,
 //! degenerate parameters, an unknown type, or a bad file.
 std::unique_ptr<Shape> make_shape(const std::vector<GeometryConfig>& parts);
 
 //! World-space bounds of the object (same as s.bounds()).
-inline Aabb object_bounds(const Shape& s) { return s.bounds(); }
+inline Aabb object_bounds(const Shape& s) {
+  return s.bounds();
+}
+
+//! Fills occ for the cells with global index (i,j,k) in [cell_lo, cell_hi) (half-open; may
+//! extend past the grid). Cell (i,j,k) spans origin + h*[i,i+1] x [j,j+1] x [k,k+1] and is
+//! solid (1) iff its centre is inside the shape. Layout: x fastest,
+//! occ[(k-klo)*ny*nx + (j-jlo)*nx + (i-ilo)]. The result for a cell depends only on its
+//! global index, so a sub-box equals the same slice of a larger voxelization.
+void voxelize(const Shape& s, const Eigen::Vector3d& origin, double h,
+              const std::array<long, 3>& cell_lo, const std::array<long, 3>& cell_hi,
+              std::vector<std::uint8_t>& occ);
+
+//! Number of non-zero entries.
+long count_solid(const std::vector<std::uint8_t>& occ);
 
 }  // namespace gen4d::geometry

@@ -6,35 +6,38 @@
 
 #include "core/Error.hpp"
 #include "geometry/Shape.hpp"
-#include "geometry/TriangleMeshShape.hpp"
-#include "geometry/VdbLevelSet.hpp"
 
 namespace gen4d::geometry {
 namespace {
 
-Eigen::Vector3d to_eigen(const Vec3d& v) { return {v[0], v[1], v[2]}; }
+Eigen::Vector3d to_eigen(const Vec3d& v) {
+  return {v[0], v[1], v[2]};
+}
 
 void require_positive(double value, const char* what) {
   if (!(value > 0) || !std::isfinite(value))
-    throw InputError(fmt::format("geometry: {} must be positive and finite, got {}", what, value));
+    throw InputError(fmt::format("{} must be positive and finite, got {}", what, value));
 }
 
 }  // namespace
 
 Box::Box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
   if (!lo.allFinite() || !hi.allFinite() || (lo.array() >= hi.array()).any())
-    throw InputError(fmt::format("geometry: box needs lo < hi in every axis, got lo=({}, {}, {}) "
-                                 "hi=({}, {}, {})",
-                                 lo.x(), lo.y(), lo.z(), hi.x(), hi.y(), hi.z()));
+    throw InputError(
+        fmt::format("box needs lo < hi in every axis, got lo=({}, {}, {}) "
+                    "hi=({}, {}, {})",
+                    lo.x(), lo.y(), lo.z(), hi.x(), hi.y(), hi.z()));
   box_.lo = lo;
   box_.hi = hi;
 }
 
-bool Box::inside(const Eigen::Vector3d& p) const { return box_.contains(p); }
+bool Box::inside(const Eigen::Vector3d& p) const {
+  return box_.contains(p);
+}
 
 Sphere::Sphere(const Eigen::Vector3d& center, double radius) : center_(center), radius_(radius) {
   require_positive(radius, "sphere radius");
-  if (!center.allFinite()) throw InputError("geometry: sphere center must be finite");
+  if (!center.allFinite()) throw InputError("sphere center must be finite");
 }
 
 bool Sphere::inside(const Eigen::Vector3d& p) const {
@@ -48,7 +51,7 @@ Aabb Sphere::bounds() const {
 Capsule::Capsule(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius)
     : a_(a), b_(b), radius_(radius) {
   require_positive(radius, "capsule radius");
-  if (!a.allFinite() || !b.allFinite()) throw InputError("geometry: capsule ends must be finite");
+  if (!a.allFinite() || !b.allFinite()) throw InputError("capsule ends must be finite");
 }
 
 bool Capsule::inside(const Eigen::Vector3d& p) const {
@@ -63,7 +66,7 @@ Aabb Capsule::bounds() const {
 }
 
 Union::Union(std::vector<std::unique_ptr<Shape>> parts) : parts_(std::move(parts)) {
-  if (parts_.empty()) throw InputError("geometry: the object has no parts");
+  if (parts_.empty()) throw InputError("the object has no geometry parts");
   for (const auto& part : parts_) bounds_.extend(part->bounds());
 }
 
@@ -87,7 +90,9 @@ TriangleMesh::TriangleMesh(Mesh mesh, double scale, const Eigen::Vector3d& trans
   tree_ = std::make_unique<WindingNumberTree>(mesh_);
 }
 
-double TriangleMesh::winding_number(const Eigen::Vector3d& p) const { return (*tree_)(p); }
+double TriangleMesh::winding_number(const Eigen::Vector3d& p) const {
+  return (*tree_)(p);
+}
 
 bool TriangleMesh::inside(const Eigen::Vector3d& p) const {
   // Outside the bounding box the whole surface lies in a half-space, which subtends at most
@@ -105,25 +110,31 @@ namespace {
 std::unique_ptr<Shape> make_part(const GeometryConfig& g) {
   if (g.type == "box") return std::make_unique<Box>(to_eigen(g.lo), to_eigen(g.hi));
   if (g.type == "sphere") return std::make_unique<Sphere>(to_eigen(g.center), g.radius);
-  if (g.type == "capsule")
-    return std::make_unique<Capsule>(to_eigen(g.a), to_eigen(g.b), g.radius);
+  if (g.type == "capsule") return std::make_unique<Capsule>(to_eigen(g.a), to_eigen(g.b), g.radius);
   if (g.type == "mesh" || g.type == "vdb") {
-    if (g.file.empty()) throw InputError(fmt::format("geometry: {} part needs a file", g.type));
+    if (g.file.empty()) throw InputError(fmt::format("{} part needs a file", g.type));
     require_positive(g.scale, "scale");
     if (g.type == "mesh") return load_triangle_mesh(g.file, g.scale, to_eigen(g.translate));
     return std::make_unique<VdbLevelSet>(g.file, g.grid, g.scale, to_eigen(g.translate));
   }
   throw InputError(fmt::format(
-      "geometry: unknown type '{}' (expected box, sphere, capsule, mesh or vdb)", g.type));
+      "unknown geometry type '{}' (expected box, sphere, capsule, mesh or vdb)", g.type));
 }
 
 }  // namespace
 
 std::unique_ptr<Shape> make_shape(const std::vector<GeometryConfig>& parts) {
-  if (parts.empty()) throw InputError("geometry: the object has no parts");
+  if (parts.empty()) throw InputError("the object has no geometry parts");
   std::vector<std::unique_ptr<Shape>> shapes;
   shapes.reserve(parts.size());
-  for (const auto& g : parts) shapes.push_back(make_part(g));
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    try {
+      shapes.push_back(make_part(parts[i]));
+    } catch (const InputError& e) {
+      // Say which [[geometry]] table of the deck is at fault.
+      throw InputError(fmt::format("[[geometry]] #{} ({}): {}", i + 1, parts[i].type, e.what()));
+    }
+  }
   if (shapes.size() == 1) return std::move(shapes.front());
   return std::make_unique<Union>(std::move(shapes));
 }

@@ -1,10 +1,11 @@
 // OpenVDB level-set solid: reads one float level-set grid and samples it trilinearly.
-#include "geometry/VdbLevelSet.hpp"
+#include "geometry/Shape.hpp"
 
 #include <fmt/format.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/Interpolation.h>
 
+#include <filesystem>
 #include <fstream>
 #include <mutex>
 
@@ -49,10 +50,10 @@ std::string choose_grid(const std::string& path, const std::string& wanted,
     }
   }
   if (wanted.empty())
-    throw InputError(fmt::format("{}: no float level-set grid; grids present: {}", path,
-                                 list_grids(grids)));
-  throw InputError(fmt::format("{}: no grid named '{}'; grids present: {}", path, wanted,
-                               list_grids(grids)));
+    throw InputError(
+        fmt::format("{}: no float level-set grid; grids present: {}", path, list_grids(grids)));
+  throw InputError(
+      fmt::format("{}: no grid named '{}'; grids present: {}", path, wanted, list_grids(grids)));
 }
 
 }  // namespace
@@ -70,7 +71,8 @@ VdbLevelSet::VdbLevelSet(const std::string& path, const std::string& grid, doubl
   initialize_openvdb_once();
   if (!(scale > 0) || !std::isfinite(scale))
     throw InputError(fmt::format("{}: VDB scale must be positive, got {}", path, scale));
-  if (!std::ifstream(path, std::ios::binary))
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec) || !std::ifstream(path, std::ios::binary))
     throw InputError(fmt::format("{}: cannot open VDB file", path));
   try {
     openvdb::io::File file(path);
@@ -96,9 +98,9 @@ VdbLevelSet::VdbLevelSet(const std::string& path, const std::string& grid, doubl
     const openvdb::Vec3d w = impl_->grid->transform().indexToWorld(idx);
     bounds_.extend(Eigen::Vector3d(w.x(), w.y(), w.z()) * scale + translate);
   }
-  impl_->sampler = std::make_unique<
-      openvdb::tools::GridSampler<openvdb::FloatTree, openvdb::tools::BoxSampler>>(
-      impl_->grid->tree(), impl_->grid->transform());
+  impl_->sampler =
+      std::make_unique<openvdb::tools::GridSampler<openvdb::FloatTree, openvdb::tools::BoxSampler>>(
+          impl_->grid->tree(), impl_->grid->transform());
 }
 
 VdbLevelSet::~VdbLevelSet() = default;

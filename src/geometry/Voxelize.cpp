@@ -6,7 +6,7 @@
 // solid volume converges to the object's volume at rate O(h^2) on average. It also makes each
 // cell's state a function of its global index alone, which lets every rank voxelize its own
 // box (with ghosts) and agree exactly with its neighbours.
-#include "geometry/Voxelize.hpp"
+#include "geometry/Shape.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -41,8 +41,7 @@ void voxelize(const Shape& s, const Eigen::Vector3d& origin, double h,
   if (box.empty() || occ.empty()) return;
   std::array<long, 3> first{}, last{};
   for (int d = 0; d < 3; ++d)
-    candidate_range(box.lo[d], box.hi[d], origin[d], h, cell_lo[d], cell_hi[d], first[d],
-                    last[d]);
+    candidate_range(box.lo[d], box.hi[d], origin[d], h, cell_lo[d], cell_hi[d], first[d], last[d]);
   Eigen::Vector3d p;
   for (long k = first[2]; k < last[2]; ++k) {
     p.z() = origin.z() + h * (static_cast<double>(k) + 0.5);
@@ -58,9 +57,8 @@ void voxelize(const Shape& s, const Eigen::Vector3d& origin, double h,
 }
 
 long count_solid(const std::vector<std::uint8_t>& occ) {
-  return static_cast<long>(std::count_if(occ.begin(), occ.end(), [](std::uint8_t v) {
-    return v != 0;
-  }));
+  return static_cast<long>(
+      std::count_if(occ.begin(), occ.end(), [](std::uint8_t v) { return v != 0; }));
 }
 
 }  // namespace gen4d::geometry

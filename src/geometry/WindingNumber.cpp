@@ -1,6 +1,6 @@
 // Generalized winding number (Jacobson et al. 2013) and its fast tree evaluation (Barill et
 // al. 2018) with the order-1 (dipole) far field.
-#include "geometry/WindingNumber.hpp"
+#include "geometry/Mesh.hpp"
 
 #include <Eigen/Geometry>
 
@@ -40,8 +40,7 @@ WindingNumberTree::WindingNumberTree(const Mesh& mesh, double beta) : beta_(beta
   for (int t = 0; t < n; ++t) {
     order[t] = t;
     const auto& tri = mesh.triangles[t];
-    centroids[t] =
-        (mesh.vertices[tri[0]] + mesh.vertices[tri[1]] + mesh.vertices[tri[2]]) / 3.0;
+    centroids[t] = (mesh.vertices[tri[0]] + mesh.vertices[tri[1]] + mesh.vertices[tri[2]]) / 3.0;
   }
   if (n == 0) return;
   nodes_.reserve(2 * (n / kLeafSize + 1));
@@ -71,9 +70,8 @@ int WindingNumberTree::build(std::vector<int>& order, std::vector<Eigen::Vector3
   (hi - lo).maxCoeff(&axis);
   const int half = count / 2;
   std::nth_element(order.begin() + first, order.begin() + first + half,
-                   order.begin() + first + count, [&](int l, int r) {
-                     return centroids[l][axis] < centroids[r][axis];
-                   });
+                   order.begin() + first + count,
+                   [&](int l, int r) { return centroids[l][axis] < centroids[r][axis]; });
   const int left = build(order, centroids, first, half, depth + 1);
   const int right = build(order, centroids, first + half, count - half, depth + 1);
   nodes_[id].left = left;

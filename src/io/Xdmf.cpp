@@ -67,7 +67,7 @@ std::string xdmf_text(const std::string& h5_name, const std::array<long, 3>& nod
       << "    <Grid Name=\"frames\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
   for (const FrameInfo& frame : frames) {
     const std::string group = frame_group(frame.index);
-    out << "    <Grid Name=\"step_" << frame.step << "\" GridType=\"Uniform\">\n"
+    out << "    <Grid Name=\"frame_" << frame.index << "\" GridType=\"Uniform\">\n"
         << "      <Time Value=\"" << frame.time << "\"/>\n"
         << "      <Topology TopologyType=\"3DSMesh\" Dimensions=\"" << nodes << "\"/>\n"
         << "      <Geometry GeometryType=\"XYZ\">\n";

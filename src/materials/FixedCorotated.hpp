@@ -68,7 +68,8 @@ struct FixedCorotated {
     const double a = 1.0 + stretch;
     const double volume_change = a * a * a - 1.0;
     const double lambda_pos = lambda > 0.0 ? lambda : 0.0;
-    return 2.0 * mu + lambda_pos * 3.0 * a * a * a * a + std::fabs(lambda) * 2.0 * a * volume_change;
+    return 2.0 * mu + lambda_pos * 3.0 * a * a * a * a +
+           std::fabs(lambda) * 2.0 * a * volume_change;
   }
 };
 

@@ -21,7 +21,9 @@ struct Mat3 {
   GEN4D_HD double operator()(int r, int c) const { return a[3 * r + c]; }
 };
 
-GEN4D_HD inline Mat3 identity3() { return Mat3{{1, 0, 0, 0, 1, 0, 0, 0, 1}}; }
+GEN4D_HD inline Mat3 identity3() {
+  return Mat3{{1, 0, 0, 0, 1, 0, 0, 0, 1}};
+}
 
 GEN4D_HD inline Mat3 diag3(const Vec3& d) {
   return Mat3{{d[0], 0, 0, 0, d[1], 0, 0, 0, d[2]}};
@@ -85,7 +87,9 @@ GEN4D_HD inline double frobenius_dot(const Mat3& A, const Mat3& B) {
   return s;
 }
 
-GEN4D_HD inline double frobenius_norm(const Mat3& A) { return std::sqrt(frobenius_dot(A, A)); }
+GEN4D_HD inline double frobenius_norm(const Mat3& A) {
+  return std::sqrt(frobenius_dot(A, A));
+}
 
 //! U diag(sigma) V^T, the inverse of svd3.
 GEN4D_HD inline Mat3 compose_svd(const Mat3& U, const Vec3& sigma, const Mat3& V) {

@@ -47,20 +47,18 @@ std::vector<std::string> known_materials();
 //! `energy(F)`, `pk1(F)` and `projection_stiffness()`.
 template <class M>
 MaterialDescriptor describe_material() {
-  return MaterialDescriptor{M::name, [](double youngs_modulus, double poisson_ratio) {
-                              const M material = M::from_young_poisson(youngs_modulus,
-                                                                       poisson_ratio);
-                              MaterialInstance instance;
-                              instance.name = M::name;
-                              instance.youngs_modulus = youngs_modulus;
-                              instance.poisson_ratio = poisson_ratio;
-                              instance.projection_stiffness = material.projection_stiffness();
-                              instance.energy = [material](const Mat3& F) {
-                                return material.energy(F);
-                              };
-                              instance.pk1 = [material](const Mat3& F) { return material.pk1(F); };
-                              return instance;
-                            }};
+  return MaterialDescriptor{
+      M::name, [](double youngs_modulus, double poisson_ratio) {
+        const M material = M::from_young_poisson(youngs_modulus, poisson_ratio);
+        MaterialInstance instance;
+        instance.name = M::name;
+        instance.youngs_modulus = youngs_modulus;
+        instance.poisson_ratio = poisson_ratio;
+        instance.projection_stiffness = material.projection_stiffness();
+        instance.energy = [material](const Mat3& F) { return material.energy(F); };
+        instance.pk1 = [material](const Mat3& F) { return material.pk1(F); };
+        return instance;
+      }};
 }
 
 }  // namespace gen4d::materials

@@ -30,7 +30,7 @@ namespace detail {
 // One-sided (Hestenes) Jacobi rotation J in the (p, q) plane that makes columns p and q of B
 // orthogonal: B <- B J, V <- V J. The 2x2 Gram entries come from the current columns rather than
 // from a precomputed F^T F, so their rounding is relative to |b_p| |b_q| instead of |F|^2; that
-// keeps the reconstruction at eps |F| when the condition number is large (1e12 and beyond).
+// keeps the reconstruction at eps |F| when F is ill-conditioned (tested at condition number 1e12).
 // Uses the Golub-Van Loan angle (|theta| <= pi/4), written so that orthogonal columns give J = I.
 GEN4D_HD inline void jacobi_rotate_columns(Mat3& B, Mat3& V, int p, int q) {
   double app = 0.0, aqq = 0.0, apq = 0.0;
