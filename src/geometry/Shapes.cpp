@@ -24,9 +24,8 @@ void require_positive(double value, const char* what) {
 Box::Box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
   if (!lo.allFinite() || !hi.allFinite() || (lo.array() >= hi.array()).any())
     throw InputError(
-        fmt::format("box needs lo < hi in every axis, got lo=({}, {}, {}) "
-                    "hi=({}, {}, {})",
-                    lo.x(), lo.y(), lo.z(), hi.x(), hi.y(), hi.z()));
+        fmt::format("box needs lo < hi in every axis, got lo=({}, {}, {}) hi=({}, {}, {})", lo.x(),
+                    lo.y(), lo.z(), hi.x(), hi.y(), hi.z()));
   box_.lo = lo;
   box_.hi = hi;
 }

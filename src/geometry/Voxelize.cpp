@@ -3,7 +3,8 @@
 // A cell is solid iff its centre is inside. Unlike "any overlap" (which inflates the solid by
 // up to a cell on every side) or "fully covered" (which erodes it), centre sampling is
 // unbiased: the cells gained and lost along a smooth boundary cancel to first order, so the
-// solid volume converges to the object's volume at rate O(h^2) on average. It also makes each
+// volume error is far below one layer of boundary cells (a few 0.1% at 12 cells per radius
+// for a ball, where a one-cell layer is 25%). It also makes each
 // cell's state a function of its global index alone, which lets every rank voxelize its own
 // box (with ghosts) and agree exactly with its neighbours.
 #include "geometry/Shape.hpp"
