@@ -29,8 +29,8 @@ inline std::vector<double> gather_positions(elastogen::Simulation& sim, bool vel
     total += counts[r];
   }
   std::vector<double> all(g.rank() == 0 ? total : 0);
-  MPI_Gatherv(local.data(), n, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE,
-              0, g.comm());
+  MPI_Gatherv(local.data(), n, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, 0,
+              g.comm());
   if (g.rank() != 0) return {};
   const auto& dims = g.global_nodes();
   std::vector<double> out(3 * dims[0] * dims[1] * dims[2]);

@@ -51,8 +51,8 @@ Config wobble(const std::vector<std::string>& sets = {}) {
 std::string scratch_dir(const std::string& name) {
   int size = 1;
   MPI_Comm_size(MPI_COMM_WORLD, &size);
-  const std::string d = std::string(GEN4D_BINARY_DIR) + "/tests/scratch/" + name + "_np" +
-                        std::to_string(size);
+  const std::string d =
+      std::string(GEN4D_BINARY_DIR) + "/tests/scratch/" + name + "_np" + std::to_string(size);
   if (test::world_rank() == 0) {
     fs::remove_all(d);
     fs::create_directories(d);
@@ -89,11 +89,10 @@ TEST(Elastogen, TrajectoryIsBitIdenticalAcrossRankCounts) {
 
 TEST(Elastogen, FreeWobbleEnergyNeverIncreases) {
   // No gravity, no clamp: after the push ends, implicit Euler may only dissipate.
-  const Config cfg = wobble({"simulation.gravity=[0,0,0]", "fixed.0.hi=[-0.5,-0.5,-0.5]",
-                             "solver.relaxation=cg", "solver.accuracy_tolerance=1e-7",
-                             "solver.inner_tolerance=1e-10", "solver.max_sweeps=2000",
-                             "solver.outer_tolerance=1e-10", "solver.max_outer=100",
-                             "force.0.end=0.02"});
+  const Config cfg = wobble(
+      {"simulation.gravity=[0,0,0]", "fixed.0.hi=[-0.5,-0.5,-0.5]", "solver.relaxation=cg",
+       "solver.accuracy_tolerance=1e-7", "solver.inner_tolerance=1e-10", "solver.max_sweeps=2000",
+       "solver.outer_tolerance=1e-10", "solver.max_outer=100", "force.0.end=0.02"});
   elastogen::Simulation sim(MPI_COMM_WORLD, cfg);
   double prev = 1e300, first = 0;
   for (int s = 0; s < 25; ++s) {

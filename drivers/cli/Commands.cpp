@@ -56,8 +56,8 @@ int run_simulation(elastogen::Simulation& sim, const std::string& out, bool appe
   elastogen::Simulation::install_signal_handlers();
   const auto res = sim.run(out, append);
   if (res.exit_code == 0)
-    log::info("done: {} steps in {:.2f} s; frames {}/frames.h5 (+ .xdmf), checkpoint {}",
-              res.steps, res.wall_seconds, out, res.last_checkpoint);
+    log::info("done: {} steps in {:.2f} s; frames {}/frames.h5 (+ .xdmf), checkpoint {}", res.steps,
+              res.wall_seconds, out, res.last_checkpoint);
   return res.exit_code;
 }
 
@@ -65,8 +65,8 @@ int cmd_run(const RunArgs& a) {
   Config cfg = a.deck.empty() ? parse_deck(default_deck_text, "<embedded default>", ".", a.sets)
                               : load_deck(a.deck, a.sets);
   const std::string out = a.out.empty() ? cfg.output.dir : a.out;
+  elastogen::Simulation sim(MPI_COMM_WORLD, cfg);  // validates geometry; writes nothing
   check_output_dir(out, a.overwrite);
-  elastogen::Simulation sim(MPI_COMM_WORLD, cfg);
   return run_simulation(sim, out, false);
 }
 
@@ -74,8 +74,7 @@ int cmd_restart(const std::string& checkpoint, const std::string& out_arg,
                 const std::vector<std::string>& sets) {
   const io::CheckpointMeta meta = io::read_checkpoint_meta(MPI_COMM_WORLD, checkpoint);
   Config cfg = parse_deck(meta.deck_text, checkpoint + " (stored deck)", ".", sets);
-  const std::string out =
-      out_arg.empty() ? fs::path(checkpoint).parent_path().string() : out_arg;
+  const std::string out = out_arg.empty() ? fs::path(checkpoint).parent_path().string() : out_arg;
   const std::string dir = out.empty() ? "." : out;
   elastogen::Simulation sim(MPI_COMM_WORLD, cfg);
   sim.load_checkpoint(checkpoint);
@@ -155,19 +154,27 @@ int dispatch(int argc, char** argv) {
 
   std::string ckpt, rs_out;
   std::vector<std::string> rs_sets;
-  auto* restart = app.add_subcommand("restart", "Continue a run from an HDF5 checkpoint (any rank count)");
-  restart->add_option("checkpoint", ckpt, "checkpoint_NNNNNN.h5")->required()->check(CLI::ExistingFile);
+  auto* restart =
+      app.add_subcommand("restart", "Continue a run from an HDF5 checkpoint (any rank count)");
+  restart->add_option("checkpoint", ckpt, "checkpoint_NNNNNN.h5")
+      ->required()
+      ->check(CLI::ExistingFile);
   restart->add_option("--out,-o", rs_out, "Output directory (default: the checkpoint's)");
-  restart->add_option("--set,-s", rs_sets, "Override a key of the stored deck (e.g. simulation.end_time)");
+  restart->add_option("--set,-s", rs_sets,
+                      "Override a key of the stored deck (e.g. simulation.end_time)");
 
-  auto* info = app.add_subcommand("info", "Version, git revision, build options, dependencies, ranks, GPUs");
+  auto* info =
+      app.add_subcommand("info", "Version, git revision, build options, dependencies, ranks, GPUs");
 
   std::string pv_file, pv_out = "preview", pv_frames = "0,-1";
   int pv_w = 960, pv_h = 720;
   auto* preview = app.add_subcommand("preview", "Render frames of a frames.h5 to PNG images");
-  preview->add_option("frames_file", pv_file, "frames.h5 written by gen4d run")->required()->check(CLI::ExistingFile);
+  preview->add_option("frames_file", pv_file, "frames.h5 written by gen4d run")
+      ->required()
+      ->check(CLI::ExistingFile);
   preview->add_option("--out,-o", pv_out, "Directory for the PNG files");
-  preview->add_option("--frames", pv_frames, "Comma-separated frame numbers; negative counts from the end");
+  preview->add_option("--frames", pv_frames,
+                      "Comma-separated frame numbers; negative counts from the end");
   preview->add_option("--width", pv_w, "Image width in pixels")->check(CLI::Range(16, 8192));
   preview->add_option("--height", pv_h, "Image height in pixels")->check(CLI::Range(16, 8192));
 
@@ -184,8 +191,8 @@ int dispatch(int argc, char** argv) {
       for (int f : frames) {
         const int idx = f < 0 ? n + f : f;
         if (idx < 0 || idx >= n)
-          throw InputError(pv_file + ": --frames " + std::to_string(f) + " is out of range; the file holds " +
-                           std::to_string(n) + " frame(s)");
+          throw InputError(pv_file + ": --frames " + std::to_string(f) +
+                           " is out of range; the file holds " + std::to_string(n) + " frame(s)");
         chosen.push_back(idx);
       }
       const auto written = io::render_frames(reader, chosen, pv_out, pv_w, pv_h);

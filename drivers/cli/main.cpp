@@ -35,6 +35,8 @@ int main(int argc, char** argv) {
   int rank = 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   gen4d::log::set_rank(rank);
+  // gen4d handles SIGTERM/SIGUSR1 itself (checkpoint, then stop); PETSc must not trap them.
+  PetscOptionsSetValue(nullptr, "-no_signal_handler", nullptr);
   PetscOptionsSetValue(nullptr, "-options_left", "0");
   PetscInitializeNoArguments();
 
@@ -47,8 +49,7 @@ int main(int argc, char** argv) {
       if (e.get_exit_code() == 0)
         std::fputs(e.what(), stdout);
       else
-        gen4d::log::error_str(std::string("command line: ") + e.what() +
-                              " (see gen4d --help)");
+        gen4d::log::error_str(std::string("command line: ") + e.what() + " (see gen4d --help)");
     }
     code = e.get_exit_code() == 0 ? 0 : 2;
   } catch (const gen4d::InputError& e) {

@@ -62,16 +62,16 @@ struct FixedConfig {
 };
 
 struct ForceConfig {
-  BoxRegion region;         //!< nodes inside share the force, by mass
-  Vec3d force{0, 0, 0};     //!< total force in newtons
-  double start = 0;         //!< s
-  double end = 1e300;       //!< s (exclusive)
+  BoxRegion region;      //!< nodes inside share the force, by mass
+  Vec3d force{0, 0, 0};  //!< total force in newtons
+  double start = 0;      //!< s
+  double end = 1e300;    //!< s (exclusive)
 };
 
 struct OutputConfig {
   std::string dir = "gen4d-out";
-  double frame_interval = 0;   //!< s; 0 = every step
-  int checkpoint_every = 0;    //!< steps; 0 = only at the end and on signals
+  double frame_interval = 0;  //!< s; 0 = every step
+  int checkpoint_every = 0;   //!< steps; 0 = only at the end and on signals
   int checkpoint_keep = 2;
   double progress_interval = 2.0;  //!< wall seconds between progress lines
 };
@@ -79,8 +79,8 @@ struct OutputConfig {
 struct Config {
   // [simulation]
   std::string name = "gen4d";
-  double dt = 0;          //!< s
-  double end_time = 0;    //!< s
+  double dt = 0;        //!< s
+  double end_time = 0;  //!< s
   Vec3d gravity{0, 0, -9.81};
   // [domain]
   double voxel_size = 0;  //!< m
@@ -92,8 +92,8 @@ struct Config {
   std::vector<ForceConfig> forces;
   OutputConfig output;
 
-  std::string source;     //!< deck path ("<embedded>" for built-in text)
-  std::string text;       //!< final deck text (TOML, overrides applied); stored in outputs
+  std::string source;  //!< deck path ("<embedded>" for built-in text)
+  std::string text;    //!< final deck text (TOML, overrides applied); stored in outputs
 };
 
 }  // namespace gen4d

@@ -8,9 +8,15 @@ int g_rank = 0;
 bool g_quiet = false;
 }  // namespace
 
-void set_rank(int r) { g_rank = r; }
-int rank() { return g_rank; }
-void set_quiet(bool q) { g_quiet = q; }
+void set_rank(int r) {
+  g_rank = r;
+}
+int rank() {
+  return g_rank;
+}
+void set_quiet(bool q) {
+  g_quiet = q;
+}
 
 void info_str(const std::string& msg) {
   if (g_rank != 0 || g_quiet) return;

@@ -22,8 +22,8 @@ class PhaseTimers {
     Scope(PhaseTimers& t, const char* phase)
         : t_(t), phase_(phase), start_(std::chrono::steady_clock::now()) {}
     ~Scope() {
-      t_.add(phase_, std::chrono::duration<double>(std::chrono::steady_clock::now() - start_)
-                         .count());
+      t_.add(phase_,
+             std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count());
     }
     Scope(const Scope&) = delete;
     Scope& operator=(const Scope&) = delete;

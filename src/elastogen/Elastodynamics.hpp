@@ -14,12 +14,12 @@
 namespace gen4d::elastogen {
 
 struct StepStats {
-  int outer = 0;              //!< RNN-1 loops run, extra ones included
-  int extra = 0;              //!< loops added by the accuracy check
-  long sweeps = 0;            //!< RNN-2 sweeps summed over the loops
-  double relative_change = 0; //!< ||delta|| / ||x - x^n|| of the last loop
-  double accuracy = 0;        //!< ||r_true|| / (||M(x-y)/dt^2|| + ||f_ext||)
-  bool accurate = true;       //!< accuracy <= solver.accuracy_tolerance
+  int outer = 0;               //!< RNN-1 loops run, extra ones included
+  int extra = 0;               //!< loops added by the accuracy check
+  long sweeps = 0;             //!< RNN-2 sweeps summed over the loops
+  double relative_change = 0;  //!< ||delta|| / ||x - x^n|| of the last loop
+  double accuracy = 0;         //!< ||r_true|| / (||M(x-y)/dt^2|| + ||f_ext||)
+  bool accurate = true;        //!< accuracy <= solver.accuracy_tolerance
 };
 
 //! The local model of one quadrature point: energy density and first Piola stress.

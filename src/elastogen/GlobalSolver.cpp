@@ -53,14 +53,15 @@ void GlobalSolver::build_subspace() {
     cos_[d].assign(max_freq, std::vector<double>(nn[d]));
     for (int f = 0; f < max_freq; ++f)
       for (long i = 0; i < nn[d]; ++i)
-        cos_[d][f][i] = std::cos(M_PI * f * static_cast<double>(i) / static_cast<double>(nn[d] - 1));
+        cos_[d][f][i] =
+            std::cos(M_PI * f * static_cast<double>(i) / static_cast<double>(nn[d] - 1));
   }
   std::vector<std::tuple<double, int, int, int>> cand;
   for (int a = 0; a < max_freq; ++a)
     for (int b = 0; b < max_freq; ++b)
       for (int c = 0; c < max_freq; ++c) {
-        const double wave = std::pow(a / double(nn[0] - 1), 2) + std::pow(b / double(nn[1] - 1), 2) +
-                            std::pow(c / double(nn[2] - 1), 2);
+        const double wave = std::pow(a / double(nn[0] - 1), 2) +
+                            std::pow(b / double(nn[1] - 1), 2) + std::pow(c / double(nn[2] - 1), 2);
         cand.emplace_back(wave, a, b, c);
       }
   std::sort(cand.begin(), cand.end());
@@ -84,7 +85,8 @@ void GlobalSolver::build_subspace() {
     sys_.apply(k_, inv_dt2_, phi.data(), aphi.data());
     for_owned(sys_.owned(), G, [&](std::size_t n, long i, long jj, long k) {
       if (!free[n]) return;
-      for (int m = 0; m < K; ++m) local[m * K + j].add(mode_value(modes_[m], i, jj, k) * aphi[3 * n]);
+      for (int m = 0; m < K; ++m)
+        local[m * K + j].add(mode_value(modes_[m], i, jj, k) * aphi[3 * n]);
     });
   }
   Eigen::MatrixXd S(K, K);
@@ -93,7 +95,8 @@ void GlobalSolver::build_subspace() {
   // Pseudo-inverse: modes can become dependent once masked to the object.
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(S);
   const double cutoff = 1e-12 * eig.eigenvalues().cwiseAbs().maxCoeff();
-  Eigen::VectorXd inv = eig.eigenvalues().unaryExpr([&](double l) { return l > cutoff ? 1.0 / l : 0.0; });
+  Eigen::VectorXd inv =
+      eig.eigenvalues().unaryExpr([&](double l) { return l > cutoff ? 1.0 / l : 0.0; });
   subspace_pinv_ = eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
 }
 

@@ -19,14 +19,18 @@ namespace gen4d::elastogen {
 
 namespace {
 volatile std::sig_atomic_t g_signal = 0;
-extern "C" void on_signal(int sig) { g_signal = sig; }
+extern "C" void on_signal(int sig) {
+  g_signal = sig;
+}
 
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-io::NodeBox to_io(const Box& b) { return io::NodeBox{b.start, b.count}; }
+io::NodeBox to_io(const Box& b) {
+  return io::NodeBox{b.start, b.count};
+}
 
 std::string format_duration(double s) {
   if (!std::isfinite(s)) return "?";
@@ -86,12 +90,12 @@ Simulation::Simulation(MPI_Comm comm, const Config& cfg) : comm_(comm), cfg_(cfg
     PhaseTimers::Scope t(timers_, "setup");
     dyn_ = std::make_unique<Elastodynamics>(*sys_, cfg_, timers_);
   }
-  log::info("gen4d {}: '{}' on {} rank(s): grid {}x{}x{} nodes, {} solid voxels, {} free nodes "
-            "({} DoFs), h = {:g} m, k = {:.4g} Pa, {} subspace modes",
-            build::version, cfg_.name, size_, layout_.nodes[0], layout_.nodes[1],
-            layout_.nodes[2], sys_->global_solid_cells(), sys_->global_free_nodes(),
-            3 * sys_->global_free_nodes(), cfg_.voxel_size, dyn_->stiffness(),
-            dyn_->global_solver().subspace_modes());
+  log::info(
+      "gen4d {}: '{}' on {} rank(s): grid {}x{}x{} nodes, {} solid voxels, {} free nodes "
+      "({} DoFs), h = {:g} m, k = {:.4g} Pa, {} subspace modes",
+      build::version, cfg_.name, size_, layout_.nodes[0], layout_.nodes[1], layout_.nodes[2],
+      sys_->global_solid_cells(), sys_->global_free_nodes(), 3 * sys_->global_free_nodes(),
+      cfg_.voxel_size, dyn_->stiffness(), dyn_->global_solver().subspace_modes());
 }
 
 Simulation::~Simulation() = default;
@@ -118,8 +122,12 @@ void Simulation::unpack_owned(const std::vector<double>& packed, std::vector<dou
         for (int d = 0; d < 3; ++d) field[3 * G.index(i, j, k) + d] = packed[3 * p + d];
 }
 
-std::vector<double> Simulation::owned_positions() const { return pack_owned(dyn_->x()); }
-std::vector<double> Simulation::owned_velocities() const { return pack_owned(dyn_->v()); }
+std::vector<double> Simulation::owned_positions() const {
+  return pack_owned(dyn_->x());
+}
+std::vector<double> Simulation::owned_velocities() const {
+  return pack_owned(dyn_->v());
+}
 
 std::vector<std::uint8_t> Simulation::owned_occupancy() const {
   const Box& oc = grid_->owned_cells();
@@ -137,10 +145,9 @@ void Simulation::load_checkpoint(const std::string& path) {
   const io::CheckpointMeta meta =
       io::read_checkpoint(comm_, path, to_io(grid_->owned_nodes()), x, v);
   if (meta.node_dims != layout_.nodes)
-    throw InputError(path + ": checkpoint grid " +
-                     fmt::format("{}", fmt::join(meta.node_dims, "x")) +
-                     " does not match the deck's grid " +
-                     fmt::format("{}", fmt::join(layout_.nodes, "x")));
+    throw InputError(
+        path + ": checkpoint grid " + fmt::format("{}", fmt::join(meta.node_dims, "x")) +
+        " does not match the deck's grid " + fmt::format("{}", fmt::join(layout_.nodes, "x")));
   unpack_owned(x, dyn_->x());
   unpack_owned(v, dyn_->v());
   dyn_->sync_ghosts();
@@ -220,8 +227,8 @@ RunResult Simulation::run(const std::string& out_dir, bool append) {
     worst_acc = std::max(worst_acc, st.accuracy);
     if (!st.accurate) ++inaccurate;
     if (st.extra > 0)
-      log::info("step {}: accuracy check ran {} extra loop(s), residual {:.2e}{}", step_,
-                st.extra, st.accuracy, st.accurate ? "" : " (above tolerance)");
+      log::info("step {}: accuracy check ran {} extra loop(s), residual {:.2e}{}", step_, st.extra,
+                st.accuracy, st.accurate ? "" : " (above tolerance)");
     if (time_ + 1e-12 * dt >= next_frame_time_ || step_ == total_steps) write_frame();
     const int sig_local = static_cast<int>(g_signal);
     int sig = 0;
@@ -232,8 +239,8 @@ RunResult Simulation::run(const std::string& out_dir, bool append) {
       res.last_checkpoint = write_checkpoint(out_dir);
       if (sig != 0) {
         g_signal = 0;
-        log::info("received {}: checkpoint {} written at step {}", sig == SIGTERM ? "SIGTERM" : "SIGUSR1",
-                  res.last_checkpoint, step_);
+        log::info("received {}: checkpoint {} written at step {}",
+                  sig == SIGTERM ? "SIGTERM" : "SIGUSR1", res.last_checkpoint, step_);
         if (sig == SIGTERM) {
           log::info("stopping; resume with: gen4d restart {}", res.last_checkpoint);
           res.exit_code = 1;
@@ -246,12 +253,12 @@ RunResult Simulation::run(const std::string& out_dir, bool append) {
       last_report = Clock::now();
       const double el = seconds_since(t0);
       const double rate = (step_ - start_step) / std::max(el, 1e-9);
-      log::info("step {:>6}/{}  t = {:.4f} s  {:.2f} steps/s  ETA {}  loops {:.1f}  sweeps {:.0f}  "
-                "residual {:.1e}",
-                step_, total_steps, time_, rate,
-                format_duration((total_steps - step_) / std::max(rate, 1e-12)),
-                outer_sum / std::max(1L, res.steps), sweep_sum / std::max(1L, res.steps),
-                worst_acc);
+      log::info(
+          "step {:>6}/{}  t = {:.4f} s  {:.2f} steps/s  ETA {}  loops {:.1f}  sweeps {:.0f}  "
+          "residual {:.1e}",
+          step_, total_steps, time_, rate,
+          format_duration((total_steps - step_) / std::max(rate, 1e-12)),
+          outer_sum / std::max(1L, res.steps), sweep_sum / std::max(1L, res.steps), worst_acc);
     }
   }
   if (res.exit_code == 0) res.last_checkpoint = write_checkpoint(out_dir);
@@ -266,8 +273,8 @@ RunResult Simulation::run(const std::string& out_dir, bool append) {
 
 void Simulation::report_timers(double wall) const {
   // The slowest rank's time per phase is what bounds the run.
-  const char* phases[] = {"voxelize", "setup", "stencil+svd", "subspace", "sweeps",
-                          "halo",     "reduction", "io"};
+  const char* phases[] = {"voxelize", "setup", "stencil+svd", "subspace",
+                          "sweeps",   "halo",  "reduction",   "io"};
   log::info("phase timers (max over ranks, wall {:.2f} s, {:.2f} steps/s):", wall,
             (step_ > 0 ? step_ : 0) / std::max(wall, 1e-9));
   for (const char* p : phases) {

@@ -23,8 +23,8 @@ struct DomainLayout {
 DomainLayout layout_domain(const Config& cfg, const geometry::Shape& shape);
 
 struct RunResult {
-  int exit_code = 0;        //!< 0 finished, 1 stopped by a signal or failure
-  long steps = 0;           //!< steps taken by this process
+  int exit_code = 0;  //!< 0 finished, 1 stopped by a signal or failure
+  long steps = 0;     //!< steps taken by this process
   double wall_seconds = 0;
   std::string last_checkpoint;
 };

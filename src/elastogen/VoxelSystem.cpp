@@ -11,8 +11,8 @@ VoxelSystem::VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, do
   const Box& G = ghosted();
   const Box& C = cells();
   for (int m = 0; m < 8; ++m)
-    corner_offset_[m] = static_cast<long>(G.index(G.start[0] + (m & 1), G.start[1] + ((m >> 1) & 1),
-                                                  G.start[2] + ((m >> 2) & 1)));
+    corner_offset_[m] = static_cast<long>(
+        G.index(G.start[0] + (m & 1), G.start[1] + ((m >> 1) & 1), G.start[2] + ((m >> 2) & 1)));
   adj_.assign(G.size(), 0);
   mass_.assign(G.size(), 0.0);
   free_.assign(G.size(), 0);
@@ -111,7 +111,8 @@ void VoxelSystem::diagonal(double k, double inv_dt2, std::vector<double>& diag) 
         double d = mass_[n] * inv_dt2;
         for (int cell = 0; cell < 8; ++cell) {
           if (!(adj_[n] >> cell & 1)) continue;
-          const int l = (1 - (cell & 1)) + 2 * (1 - ((cell >> 1) & 1)) + 4 * (1 - ((cell >> 2) & 1));
+          const int l =
+              (1 - (cell & 1)) + 2 * (1 - ((cell >> 1) & 1)) + 4 * (1 - ((cell >> 2) & 1));
           d += k * h_ * s.K[l][l];
         }
         diag[n] = d;

@@ -65,11 +65,11 @@ class VoxelSystem {
   const parallel::NodeGrid& grid_;
   Vec3d origin_;
   double h_;
-  std::vector<std::uint8_t> occ_;        // on adjacent cells
-  std::vector<std::uint8_t> adj_;        // per ghosted node: bit of each solid neighbour cell
-  std::vector<double> mass_;             // per ghosted node
+  std::vector<std::uint8_t> occ_;  // on adjacent cells
+  std::vector<std::uint8_t> adj_;  // per ghosted node: bit of each solid neighbour cell
+  std::vector<double> mass_;       // per ghosted node
   std::vector<std::uint8_t> free_, fixed_;
-  std::vector<double> cell_forces_;      // 24 per adjacent cell
+  std::vector<double> cell_forces_;  // 24 per adjacent cell
   long global_solid_ = 0, global_free_ = 0;
   std::array<long, 8> corner_offset_{};  // ghosted linear offset of corner m from the cell base
 };

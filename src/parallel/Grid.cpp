@@ -15,11 +15,10 @@ NodeGrid::NodeGrid(MPI_Comm comm, const std::array<long, 3>& global_nodes)
   for (int d = 0; d < 3; ++d)
     if (global_[d] < 2)
       throw InputError("grid needs at least 2 nodes per axis, got " + std::to_string(global_[d]));
-  check(DMDACreate3d(comm, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE,
-                     DMDA_STENCIL_BOX, static_cast<PetscInt>(global_[0]),
-                     static_cast<PetscInt>(global_[1]), static_cast<PetscInt>(global_[2]),
-                     PETSC_DECIDE, PETSC_DECIDE, PETSC_DECIDE, 3, 1, nullptr, nullptr, nullptr,
-                     &dm3_),
+  check(DMDACreate3d(comm, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DMDA_STENCIL_BOX,
+                     static_cast<PetscInt>(global_[0]), static_cast<PetscInt>(global_[1]),
+                     static_cast<PetscInt>(global_[2]), PETSC_DECIDE, PETSC_DECIDE, PETSC_DECIDE, 3,
+                     1, nullptr, nullptr, nullptr, &dm3_),
         "DMDACreate3d");
   check(DMSetUp(dm3_), "DMSetUp");
   // The scalar DM shares the decomposition of the vector one.

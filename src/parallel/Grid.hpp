@@ -15,8 +15,8 @@ struct Box {
 
   long size() const { return count[0] * count[1] * count[2]; }
   bool contains(long i, long j, long k) const {
-    return i >= start[0] && i < start[0] + count[0] && j >= start[1] &&
-           j < start[1] + count[1] && k >= start[2] && k < start[2] + count[2];
+    return i >= start[0] && i < start[0] + count[0] && j >= start[1] && j < start[1] + count[1] &&
+           k >= start[2] && k < start[2] + count[2];
   }
   //! Linear index of global (i, j, k) inside this box (no bounds check).
   std::size_t index(long i, long j, long k) const {

@@ -2,7 +2,9 @@
 
 namespace gen4d::parallel {
 
-Reducer::Reducer(MPI_Comm comm) : comm_(comm) { MPI_Comm_size(comm, &size_); }
+Reducer::Reducer(MPI_Comm comm) : comm_(comm) {
+  MPI_Comm_size(comm, &size_);
+}
 
 void Reducer::sum(const ExactSum* local, double* global, std::size_t n) {
   send_.resize(2 * n);

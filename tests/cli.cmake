@@ -1,0 +1,11 @@
+# End-to-end checks of the gen4d executable: exit codes, one-line errors, untouched outputs,
+# and a SIGTERM / restart cycle at 2 ranks.
+if(TARGET gen4d)
+  foreach(script cli_errors cli_sigterm_restart)
+    add_test(NAME ${script}
+             COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/${script}.sh $<TARGET_FILE:gen4d>
+                     ${MPIEXEC_EXECUTABLE} ${CMAKE_CURRENT_BINARY_DIR}/scratch/${script})
+    set_tests_properties(${script} PROPERTIES ENVIRONMENT "${GEN4D_TEST_ENV}" PROCESSORS 2
+                         TIMEOUT 600)
+  endforeach()
+endif()
