@@ -6,7 +6,12 @@
 // 1e4 s makes the inertia term negligible: one implicit-Euler step from rest is the static
 // solve. The remaining gap to beam theory is the trilinear voxel's parasitic shear
 // (which stiffens) and Timoshenko shear (which softens, ~0.6% here); 5% bounds both at this
-// resolution and the test prints the measured error.
+// resolution and the test prints the measured error (-2.5 %).
+//
+// Relaxation: CG, because a static solve (dt -> infinity) has no mass term and damped Jacobi
+// needs O(condition number) sweeps. The outer (local-global) loop converges linearly and
+// slowly for bending, whose strain is small next to its rotation (~12k loops here); the
+// accuracy check, not a loop cap, decides when it is done.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -40,6 +45,7 @@ relaxation = ")" + relaxation +
 max_sweeps = 20000
 inner_tolerance = 1e-4
 max_outer = 20000
+max_extra_outer = 20000
 outer_tolerance = 1e-6
 accuracy_tolerance = 1e-3
 [[fixed]]

@@ -9,17 +9,16 @@
 namespace gen4d::elastogen {
 
 namespace {
-template <class F>
-void for_owned(const Box& O, const Box& G, F&& f) {
-  for (long k = O.start[2]; k < O.start[2] + O.count[2]; ++k)
-    for (long j = O.start[1]; j < O.start[1] + O.count[1]; ++j)
-      for (long i = O.start[0]; i < O.start[0] + O.count[0]; ++i) f(G.index(i, j, k), i, j, k);
-}
-
-materials::Mat3 to_mat3(const double* F) {
-  materials::Mat3 m;
-  for (int a = 0; a < 9; ++a) m.a[a] = F[a];
-  return m;
+//! Adapts a pointwise material to the stencil's stress callback.
+template <class Material>
+auto stress_of(const Material& mat) {
+  return [mat](const double* F, double* P) {
+    materials::Mat3 Fm;
+    for (int a = 0; a < 9; ++a) Fm.a[a] = F[a];
+    const materials::Mat3 Pm = mat.pk1(Fm);
+    for (int a = 0; a < 9; ++a) P[a] = Pm.a[a];
+    return mat.energy(Fm);
+  };
 }
 }  // namespace
 
@@ -92,26 +91,9 @@ void Elastodynamics::external_forces(double t, std::vector<double>& f) const {
 
 double Elastodynamics::internal_forces(const std::vector<double>& x, std::vector<double>& f) {
   // The runtime choice of local model picks one instantiation of the stencil loop.
-  if (arap_) {
-    const materials::Arap mat{k_};
-    return sys_.internal_forces(
-        [&](const double* F, double* P) {
-          const auto Fm = to_mat3(F);
-          const auto Pm = mat.pk1(Fm);
-          for (int a = 0; a < 9; ++a) P[a] = Pm.a[a];
-          return mat.energy(Fm);
-        },
-        x.data(), f.data());
-  }
-  const materials::FixedCorotated mat{mu_, lambda_};
-  return sys_.internal_forces(
-      [&](const double* F, double* P) {
-        const auto Fm = to_mat3(F);
-        const auto Pm = mat.pk1(Fm);
-        for (int a = 0; a < 9; ++a) P[a] = Pm.a[a];
-        return mat.energy(Fm);
-      },
-      x.data(), f.data());
+  if (arap_) return sys_.internal_forces(stress_of(materials::Arap{k_}), x.data(), f.data());
+  return sys_.internal_forces(stress_of(materials::FixedCorotated{mu_, lambda_}), x.data(),
+                              f.data());
 }
 
 double Elastodynamics::residual(const std::vector<double>& y, std::vector<double>& r) {

@@ -6,15 +6,6 @@
 
 namespace gen4d::elastogen {
 
-namespace {
-template <class F>
-void for_owned(const Box& O, const Box& G, F&& f) {
-  for (long k = O.start[2]; k < O.start[2] + O.count[2]; ++k)
-    for (long j = O.start[1]; j < O.start[1] + O.count[1]; ++j)
-      for (long i = O.start[0]; i < O.start[0] + O.count[0]; ++i) f(G.index(i, j, k), i, j, k);
-}
-}  // namespace
-
 GlobalSolver::GlobalSolver(VoxelSystem& sys, const SolverConfig& cfg, double k, double dt,
                            PhaseTimers& timers)
     : sys_(sys),

@@ -267,16 +267,16 @@ RunResult Simulation::run(const std::string& out_dir, bool append) {
   if (inaccurate > 0)
     log::warn("{} step(s) ended above solver.accuracy_tolerance (worst {:.2e})", inaccurate,
               worst_acc);
-  report_timers(res.wall_seconds);
+  report_timers(res.wall_seconds, res.steps);
   return res;
 }
 
-void Simulation::report_timers(double wall) const {
+void Simulation::report_timers(double wall, long steps) const {
   // The slowest rank's time per phase is what bounds the run.
   const char* phases[] = {"voxelize", "setup", "stencil+svd", "subspace",
                           "sweeps",   "halo",  "reduction",   "io"};
   log::info("phase timers (max over ranks, wall {:.2f} s, {:.2f} steps/s):", wall,
-            (step_ > 0 ? step_ : 0) / std::max(wall, 1e-9));
+            static_cast<double>(steps) / std::max(wall, 1e-9));
   for (const char* p : phases) {
     double local = timers_.total(p), global = 0;
     MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_MAX, comm_);

@@ -59,7 +59,7 @@ class Simulation {
   void unpack_owned(const std::vector<double>& packed, std::vector<double>& field) const;
   std::vector<std::uint8_t> owned_occupancy() const;
   std::string write_checkpoint(const std::string& out_dir);
-  void report_timers(double wall) const;
+  void report_timers(double wall, long steps) const;
 
   MPI_Comm comm_;
   Config cfg_;

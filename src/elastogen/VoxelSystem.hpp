@@ -16,6 +16,14 @@ namespace gen4d::elastogen {
 
 using parallel::Box;
 
+//! Calls f(linear index in G, i, j, k) for every node of the owned box O, x fastest.
+template <class F>
+void for_owned(const Box& O, const Box& G, F&& f) {
+  for (long k = O.start[2]; k < O.start[2] + O.count[2]; ++k)
+    for (long j = O.start[1]; j < O.start[1] + O.count[1]; ++j)
+      for (long i = O.start[0]; i < O.start[0] + O.count[0]; ++i) f(G.index(i, j, k), i, j, k);
+}
+
 //! Node arrays live on the rank's ghosted node box (x-fastest, 3 dof interleaved for
 //! vectors); cell arrays on the adjacent-cell box. Every owned-node result is computed
 //! node by node from its 8 neighbouring voxels in a fixed order, so it does not depend on
