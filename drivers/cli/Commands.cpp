@@ -195,6 +195,9 @@ int dispatch(int argc, char** argv) {
                            " is out of range; the file holds " + std::to_string(n) + " frame(s)");
         chosen.push_back(idx);
       }
+      std::error_code ec;
+      fs::create_directories(pv_out, ec);
+      if (ec) throw RuntimeError("--out " + pv_out + ": cannot create directory: " + ec.message());
       const auto written = io::render_frames(reader, chosen, pv_out, pv_w, pv_h);
       for (const auto& f : written) log::info("wrote {}", f);
     }
