@@ -13,7 +13,7 @@ for _ in $(seq 1 600); do grep -q "step  *[1-9][0-9]*/" "$dir/cut.log" 2>/dev/nu
 kill -TERM $pid
 wait $pid; code=$?
 [[ $code -eq 1 ]] || { echo "FAIL interrupted run exit $code"; cat "$dir/cut.log"; exit 1; }
-ck=$(ls "$dir"/cut/checkpoint_*.h5 | tail -1)
+ck=$(ls "$dir/cut"/checkpoint_*.h5 | tail -1)
 grep -q "received SIGTERM" "$dir/cut.log" || { echo "FAIL no SIGTERM message"; exit 1; }
 "$gen4d" restart "$ck" > "$dir/restart.log" 2>&1 || { echo "FAIL restart"; cat "$dir/restart.log"; exit 1; }
 /usr/bin/python3 - "$dir/full/frames.h5" "$dir/cut/frames.h5" <<'PY' || exit 1

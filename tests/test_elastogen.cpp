@@ -52,7 +52,8 @@ std::string scratch_dir(const std::string& name) {
   int size = 1;
   MPI_Comm_size(MPI_COMM_WORLD, &size);
   const std::string d =
-      std::string(GEN4D_BINARY_DIR) + "/tests/scratch/" + name + "_np" + std::to_string(size);
+      (fs::path(GEN4D_BINARY_DIR) / "tests" / "scratch" / (name + "_np" + std::to_string(size)))
+          .string();
   if (test::world_rank() == 0) {
     fs::remove_all(d);
     fs::create_directories(d);

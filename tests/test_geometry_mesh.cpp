@@ -28,7 +28,7 @@ std::string asset_path(const std::string& name) {
 }
 
 std::string shared_mesh(const std::string& name) {
-  return std::string(GEN4D_SHARED_DIR) + "/data/meshes/" + name;
+  return (std::filesystem::path(GEN4D_SHARED_DIR) / "data" / "meshes" / name).string();
 }
 
 void write_text(const std::string& path, const std::string& text) {

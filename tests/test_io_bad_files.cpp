@@ -164,12 +164,12 @@ TEST_F(BadFiles, FrameMissingItsVelocity) {
   const std::string path = prepare("frames_damaged.h5", [&](const std::string& p) {
     std::filesystem::copy_file(frames, p);
     hid_t file = H5Fopen(p.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
-    H5Ldelete(file, "/frames/000001/velocity", H5P_DEFAULT);
+    H5Ldelete(file, (frame_group(1) + "/velocity").c_str(), H5P_DEFAULT);
     H5Fclose(file);
   });
   FrameReader reader(path);
   EXPECT_EQ(reader.read_velocity(0).size(), 3u * 4 * 3 * 3);
-  expect_input_error(path, "missing dataset /frames/000001/velocity",
+  expect_input_error(path, "missing dataset " + frame_group(1) + "/velocity",
                      [&] { reader.read_velocity(1); });
   expect_input_error(path, "missing dataset /occupancy", [&] { reader.read_occupancy(); });
   expect_input_error(path, "no frame 2", [&] { reader.read_position(2); });

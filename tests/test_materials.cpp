@@ -94,6 +94,15 @@ void expect_pk1_is_energy_gradient(const M& material, const char* what) {
   }
   std::printf("[ materials ] %s: worst |P - FD| / |P| = %.2e\n", what, worst);
   EXPECT_LT(worst, 1e-6) << what;
+  // The solver's fused call (one SVD) must equal the two separate calls bit for bit.
+  for (int i = 0; i < 100; ++i) {
+    const Mat3 F = random_deformation(rng, i % 2 == 1);
+    Mat3 P;
+    const double psi = material.energy_and_pk1(F, P);
+    EXPECT_EQ(psi, material.energy(F)) << what;
+    const Mat3 Pref = material.pk1(F);
+    for (int a = 0; a < 9; ++a) EXPECT_EQ(P.a[a], Pref.a[a]) << what;
+  }
 }
 
 template <class M>

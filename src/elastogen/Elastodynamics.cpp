@@ -15,9 +15,10 @@ auto stress_of(const Material& mat) {
   return [mat](const double* F, double* P) {
     materials::Mat3 Fm;
     for (int a = 0; a < 9; ++a) Fm.a[a] = F[a];
-    const materials::Mat3 Pm = mat.pk1(Fm);
+    materials::Mat3 Pm;
+    const double psi = mat.energy_and_pk1(Fm, Pm);
     for (int a = 0; a < 9; ++a) P[a] = Pm.a[a];
-    return mat.energy(Fm);
+    return psi;
   };
 }
 }  // namespace

@@ -24,9 +24,9 @@ bool all_digits(const std::string& s) {
 }  // namespace
 
 std::string frame_group(int index) {
-  char name[32];
-  std::snprintf(name, sizeof name, "/frames/%06d", index);
-  return name;
+  char name[16];
+  std::snprintf(name, sizeof name, "%06d", index);
+  return std::string(kFramesGroup) + "/" + name;
 }
 
 void write_grid_meta(hid_t file, const GridMeta& meta) {
@@ -73,23 +73,23 @@ GridMeta read_grid_meta(hid_t file, const std::string& file_name) {
 
 std::vector<FrameInfo> list_frames(hid_t file, const std::string& file_name) {
   std::vector<FrameInfo> frames;
-  if (!h5::link_exists(file, "/frames")) return frames;
-  h5::Handle group = h5::open_group(file, "/frames", h5::Failure::Input, file_name);
+  if (!h5::link_exists(file, kFramesGroup)) return frames;
+  h5::Handle group = h5::open_group(file, kFramesGroup, h5::Failure::Input, file_name);
   std::vector<std::string> names;
   H5L_iterate_t collect = [](hid_t, const char* name, const auto*, void* out) -> herr_t {
     static_cast<std::vector<std::string>*>(out)->emplace_back(name);
     return 0;
   };
   h5::check(H5Literate(group.get(), H5_INDEX_NAME, H5_ITER_INC, nullptr, collect, &names),
-            h5::Failure::Input, file_name + ": cannot list /frames");
+            h5::Failure::Input, file_name + ": cannot list " + kFramesGroup);
   for (const std::string& name : names) {
     if (!all_digits(name)) {
-      throw InputError(file_name + ": unexpected entry /frames/" + name);
+      throw InputError(file_name + ": unexpected entry " + kFramesGroup + "/" + name);
     }
     FrameInfo info;
     info.index = std::stoi(name);
     h5::Handle frame = h5::open_group(group.get(), name, h5::Failure::Input, file_name);
-    const std::string where = file_name + " /frames/" + name;
+    const std::string where = file_name + " " + kFramesGroup + "/" + name;
     info.time = h5::read_double_attr(frame.get(), "time", where);
     info.step = static_cast<int>(h5::read_long_attr(frame.get(), "step", where));
     frames.push_back(info);

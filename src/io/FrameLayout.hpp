@@ -1,4 +1,5 @@
-//! Layout of a gen4d frames file: grid metadata on the root group, /occupancy, /frames/NNNNNN.
+//! Layout of a gen4d frames file: grid metadata on the root group, the occupancy dataset, and
+//! one group per frame (kFramesGroup + "/NNNNNN").
 #pragma once
 
 #include <hdf5.h>
@@ -9,6 +10,9 @@
 #include <vector>
 
 namespace gen4d::io {
+
+//! The group holding one subgroup per frame.
+inline constexpr const char* kFramesGroup = "/frames";
 
 inline constexpr const char* kFramesFormat = "gen4d-frames";
 inline constexpr long kFramesFormatVersion = 1;
@@ -21,14 +25,14 @@ struct GridMeta {
   std::map<std::string, std::string> attributes;
 };
 
-//! One stored frame. `index` numbers the group /frames/NNNNNN.
+//! One stored frame. `index` numbers its group under kFramesGroup (six digits).
 struct FrameInfo {
   int index = 0;
   int step = 0;
   double time = 0;
 };
 
-//! "/frames/000042" for index 42.
+//! The group of frame `index`: kFramesGroup, a slash, and the index in six digits.
 std::string frame_group(int index);
 
 //! Writes the grid metadata on the root group (collective). Throws RuntimeError.

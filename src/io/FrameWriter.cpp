@@ -39,7 +39,7 @@ FrameWriter::FrameWriter(MPI_Comm comm, const std::string& h5_path, const GridMe
   try {
     file_ = h5::create_file(comm, h5_path);
     write_grid_meta(file_.get(), meta_);
-    h5::create_group(file_.get(), "/frames");
+    h5::create_group(file_.get(), kFramesGroup);
   } catch (const std::exception& e) {
     error = h5_path + ": " + e.what();
   }
@@ -55,8 +55,8 @@ FrameWriter FrameWriter::open_append(MPI_Comm comm, const std::string& h5_path,
   std::vector<FrameInfo> stored = list_frames(file.get(), h5_path);
   FrameWriter writer(comm, h5_path, std::move(file), std::move(meta));
   writer.has_occupancy_ = h5::link_exists(writer.file_.get(), "/occupancy");
-  if (!h5::link_exists(writer.file_.get(), "/frames")) {
-    h5::create_group(writer.file_.get(), "/frames");
+  if (!h5::link_exists(writer.file_.get(), kFramesGroup)) {
+    h5::create_group(writer.file_.get(), kFramesGroup);
   }
   for (const FrameInfo& frame : stored) {
     if (frame.step <= keep_up_to_step) {

@@ -13,10 +13,10 @@
 
 namespace gen4d::io {
 
-//! Writes /occupancy once and a group /frames/NNNNNN (position, velocity; attributes time,
-//! step) per frame, collectively on `comm`. Datasets are global C-order arrays [nz][ny][nx](3),
-//! so every decomposition writes the same file. After each frame the file is flushed and rank 0
-//! replaces the .xdmf index next to it, so an unfinished run is always viewable.
+//! Writes the occupancy once and one group per frame under kFramesGroup (position, velocity;
+//! attributes time, step) per frame, collectively on `comm`. Datasets are global C-order arrays
+//! [nz][ny][nx](3), so every decomposition writes the same file. After each frame the file is
+//! flushed and rank 0 replaces the .xdmf index next to it, so an unfinished run is always viewable.
 //! Every method is collective: ranks owning nothing pass an empty box.
 class FrameWriter {
  public:

@@ -21,16 +21,28 @@ struct Arap {
   }
 
   //! k/2 sum (sigma_i - 1)^2 over the signed singular values, = k/2 ||F - R||^2.
+  GEN4D_HD double energy_from_singular_values(const Vec3& s) const {
+    const double d0 = s[0] - 1.0, d1 = s[1] - 1.0, d2 = s[2] - 1.0;
+    return 0.5 * k * (d0 * d0 + d1 * d1 + d2 * d2);
+  }
   GEN4D_HD double energy(const Mat3& F) const {
     Mat3 U, V;
     Vec3 s;
     svd3(F, U, s, V);
-    const double d0 = s[0] - 1.0, d1 = s[1] - 1.0, d2 = s[2] - 1.0;
-    return 0.5 * k * (d0 * d0 + d1 * d1 + d2 * d2);
+    return energy_from_singular_values(s);
   }
 
   GEN4D_HD Mat3 pk1(const Mat3& F, const Mat3& R) const { return k * (F - R); }
   GEN4D_HD Mat3 pk1(const Mat3& F) const { return pk1(F, polar_rotation(F)); }
+
+  //! Energy and stress from one SVD (the solver's per-quadrature-point call).
+  GEN4D_HD double energy_and_pk1(const Mat3& F, Mat3& P) const {
+    Mat3 U, V;
+    Vec3 s;
+    svd3(F, U, s, V);
+    P = pk1(F, U * transpose(V));
+    return energy_from_singular_values(s);
+  }
 
   //! dP/dF has eigenvalues k (stretch, twist) and k (1 - 2 / (sigma_i + sigma_j)) < k (flip)
   //! for every non-inverted F, so k itself bounds it and p = F - P/k = R is the ARAP target.

@@ -29,13 +29,15 @@ struct FixedCorotated {
   }
 
   //! Energy density with the signed singular values: mu sum (sigma_i - 1)^2 = mu ||F - R||^2.
+  GEN4D_HD double energy_from_singular_values(const Vec3& s, double J) const {
+    const double d0 = s[0] - 1.0, d1 = s[1] - 1.0, d2 = s[2] - 1.0;
+    return mu * (d0 * d0 + d1 * d1 + d2 * d2) + 0.5 * lambda * (J - 1.0) * (J - 1.0);
+  }
   GEN4D_HD double energy(const Mat3& F) const {
     Mat3 U, V;
     Vec3 s;
     svd3(F, U, s, V);
-    const double J = det(F);
-    const double d0 = s[0] - 1.0, d1 = s[1] - 1.0, d2 = s[2] - 1.0;
-    return mu * (d0 * d0 + d1 * d1 + d2 * d2) + 0.5 * lambda * (J - 1.0) * (J - 1.0);
+    return energy_from_singular_values(s, det(F));
   }
 
   //! P = 2 mu (F - R) + lambda (J - 1) cof(F); cof(F) = J F^{-T} but stays defined at J = 0.
@@ -45,6 +47,15 @@ struct FixedCorotated {
     return 2.0 * mu * (F - R) + (lambda * (J - 1.0)) * cofactor(F);
   }
   GEN4D_HD Mat3 pk1(const Mat3& F) const { return pk1(F, polar_rotation(F)); }
+
+  //! Energy and stress from one SVD (the solver's per-quadrature-point call).
+  GEN4D_HD double energy_and_pk1(const Mat3& F, Mat3& P) const {
+    Mat3 U, V;
+    Vec3 s;
+    svd3(F, U, s, V);
+    P = pk1(F, U * transpose(V));
+    return energy_from_singular_values(s, det(F));
+  }
 
   //! k for the projective-dynamics local model k/2 ||F - p||^2 with p = F - P(F)/k.
   //

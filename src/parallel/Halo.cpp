@@ -21,10 +21,11 @@ Halo::~Halo() {
 }
 
 void Halo::gather(double* field) {
+  // Owned values are already in place: one in-place local-to-local scatter fills the ghosts
+  // without staging through a global vector.
   check(VecPlaceArray(local_, field), "VecPlaceArray");
-  check(DMLocalToGlobal(dm_, local_, INSERT_VALUES, global_), "DMLocalToGlobal");
-  check(DMGlobalToLocalBegin(dm_, global_, INSERT_VALUES, local_), "DMGlobalToLocalBegin");
-  check(DMGlobalToLocalEnd(dm_, global_, INSERT_VALUES, local_), "DMGlobalToLocalEnd");
+  check(DMLocalToLocalBegin(dm_, local_, INSERT_VALUES, local_), "DMLocalToLocalBegin");
+  check(DMLocalToLocalEnd(dm_, local_, INSERT_VALUES, local_), "DMLocalToLocalEnd");
   check(VecResetArray(local_), "VecResetArray");
 }
 
