@@ -5,26 +5,16 @@
 
 #include "core/Error.hpp"
 #include "geometry/Shape.hpp"
+#include "test_geometry_support.hpp"
 
 namespace g = gen4d::geometry;
 using Eigen::Vector3d;
 
+using namespace geomtest;
+
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-// Voxelizes the shape's bounds (plus two cells) and returns the solid volume.
-double voxel_volume(const g::Shape& s, double h) {
-  const g::Aabb b = s.bounds();
-  // A generic offset: a ball centred exactly on a cell centre or corner is the lattice's
-  // worst case (-1.2% at 12 cells per radius), which would say nothing about the shape.
-  const Vector3d origin = b.lo - h * Vector3d(2.37, 2.21, 2.83);
-  std::array<long, 3> hi{};
-  for (int d = 0; d < 3; ++d) hi[d] = static_cast<long>(std::ceil((b.hi[d] - origin[d]) / h)) + 2;
-  std::vector<std::uint8_t> occ;
-  g::voxelize(s, origin, h, {0, 0, 0}, hi, occ);
-  return static_cast<double>(g::count_solid(occ)) * h * h * h;
-}
 
 double ball_volume(double r) {
   return 4.0 / 3.0 * kPi * r * r * r;

@@ -9,10 +9,13 @@
 
 #include "core/Error.hpp"
 #include "geometry/Shape.hpp"
+#include "test_geometry_support.hpp"
 
 namespace g = gen4d::geometry;
 namespace fs = std::filesystem;
 using Eigen::Vector3d;
+
+using namespace geomtest;
 
 namespace {
 
@@ -44,31 +47,6 @@ std::string write_sphere_vdb() {
   velocity->tree().setValue(openvdb::Coord(0, 0, 0), openvdb::Vec3s(1, 0, 0));
   openvdb::io::File(path).write({density, velocity, sphere});
   return path;
-}
-
-double voxel_volume(const g::Shape& s, double h) {
-  const g::Aabb b = s.bounds();
-  // A generic offset: a ball centred exactly on a cell centre or corner is the lattice's
-  // worst case (-1.2% at 12 cells per radius), which would say nothing about the shape.
-  const Vector3d origin = b.lo - h * Vector3d(2.37, 2.21, 2.83);
-  std::array<long, 3> hi{};
-  for (int d = 0; d < 3; ++d) hi[d] = static_cast<long>(std::ceil((b.hi[d] - origin[d]) / h)) + 2;
-  std::vector<std::uint8_t> occ;
-  g::voxelize(s, origin, h, {0, 0, 0}, hi, occ);
-  return static_cast<double>(g::count_solid(occ)) * h * h * h;
-}
-
-template <class F>
-void expect_input_error(F f, const std::vector<std::string>& needles) {
-  try {
-    f();
-    ADD_FAILURE() << "no InputError; expected one mentioning " << needles.front();
-  } catch (const gen4d::InputError& e) {
-    const std::string msg = e.what();
-    std::printf("  InputError: %s\n", msg.c_str());
-    EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
-    for (const auto& n : needles) EXPECT_NE(msg.find(n), std::string::npos) << msg;
-  }
 }
 
 }  // namespace
