@@ -10,7 +10,8 @@
 //
 // Relaxation: CG, because a static solve (dt -> infinity) has no mass term and damped Jacobi
 // needs O(condition number) sweeps. The outer (local-global) loop converges linearly and
-// slowly for bending, whose strain is small next to its rotation (~12k loops here); the
+// slowly for bending, whose strain is small next to its rotation: ~12.5k plain loops here,
+// ~3.3k with the default Anderson acceleration (depth 5); the
 // accuracy check, not a loop cap, decides when it is done.
 #include <gtest/gtest.h>
 

@@ -53,8 +53,9 @@ struct SolverConfig {
   int subspace_modes = 18;            //!< K low-frequency modes; 0 disables
   int max_outer = 10;                 //!< RNN-1 loops per step
   double outer_tolerance = 1e-3;      //!< relative change of x between loops
-  double accuracy_tolerance = 1e-2;   //!< relative true residual after the loops
-  int max_extra_outer = 20;           //!< extra loops allowed by the accuracy check
+  double accuracy_tolerance = 1e-3;   //!< relative true residual after the loops
+  int max_extra_outer = 100;          //!< extra loops allowed by the accuracy check
+  int anderson_depth = 5;             //!< Anderson acceleration history of RNN-1; 0 disables
 };
 
 struct FixedConfig {

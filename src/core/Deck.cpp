@@ -230,6 +230,9 @@ void read_solver(const Section& s, SolverConfig& v) {
   require_positive(s, "accuracy_tolerance", v.accuracy_tolerance);
   v.max_extra_outer = s.integer("max_extra_outer", v.max_extra_outer);
   require_at_least(s, "max_extra_outer", v.max_extra_outer, 0);
+  v.anderson_depth = s.integer("anderson_depth", v.anderson_depth);
+  s.check(v.anderson_depth >= 0 && v.anderson_depth <= 16, "anderson_depth",
+          fmt::format("must be in [0, 16], got {}", v.anderson_depth));
 }
 
 FixedConfig read_fixed(const Section& s) {

@@ -35,7 +35,8 @@ Elastodynamics::Elastodynamics(VoxelSystem& sys, const Config& cfg, PhaseTimers&
              ? 2.0 * mu_
              : materials::FixedCorotated{mu_, lambda_}.projection_stiffness()),
       arap_(cfg.material.target == "arap"),
-      solver_(sys, cfg.solver, k_, cfg.dt, timers) {
+      solver_(sys, cfg.solver, k_, cfg.dt, timers),
+      anderson_(cfg.solver.anderson_depth, sys, solver_.reducer()) {
   const std::size_t n = 3 * sys_.ghosted().size();
   for (auto* a : {&x_, &v_, &xn_, &y_, &r_, &delta_, &fext_, &fint_}) a->assign(n, 0.0);
   // Applied forces are shared among a region's nodes by mass.
@@ -98,20 +99,24 @@ double Elastodynamics::internal_forces(const std::vector<double>& x, std::vector
 }
 
 double Elastodynamics::residual(const std::vector<double>& y, std::vector<double>& r) {
-  double e;
+  parallel::ExactSum phi[2];  // elastic energy, inertia term
   {
     PhaseTimers::Scope t(timers_, "stencil+svd");
-    e = internal_forces(x_, fint_);
+    phi[0].add(internal_forces(x_, fint_));
   }
   const auto& m = sys_.mass();
   const double inv_dt2 = 1.0 / (dt_ * dt_);
   for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
-    for (int d = 0; d < 3; ++d)
-      r[3 * n + d] = sys_.free_mask()[n]
-                         ? m[n] * (y[3 * n + d] - x_[3 * n + d]) * inv_dt2 + fint_[3 * n + d]
-                         : 0.0;
+    for (int d = 0; d < 3; ++d) {
+      const double dx = y[3 * n + d] - x_[3 * n + d];
+      r[3 * n + d] = sys_.free_mask()[n] ? m[n] * dx * inv_dt2 + fint_[3 * n + d] : 0.0;
+      phi[1].add(0.5 * m[n] * dx * dx * inv_dt2);
+    }
   });
-  return e;
+  double g[2];
+  PhaseTimers::Scope t(timers_, "reduction");
+  solver_.reducer().sum(phi, g, 2);
+  return g[0] + g[1];
 }
 
 double Elastodynamics::owned_norm(const std::vector<double>& a, const std::vector<double>* b) {
@@ -147,23 +152,36 @@ StepStats Elastodynamics::step(double t) {
   }
   StepStats st;
   const auto& scfg = cfg_.solver;
+  anderson_.reset();
+  double phi = 0;  // implicit-Euler objective at x_
+  auto gather_x = [&] {
+    PhaseTimers::Scope tt(timers_, "halo");
+    solver_.halo().gather(x_.data());
+  };
   auto outer_loop = [&]() {
     const InnerStats in = solver_.solve(r_, delta_);
     st.sweeps += in.sweeps;
-    for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
-      for (int d = 0; d < 3; ++d) x_[3 * n + d] += delta_[3 * n + d];
-    });
-    {
-      PhaseTimers::Scope tt(timers_, "halo");
-      solver_.halo().gather(x_.data());
+    x_prev_ = x_;
+    const bool mixed = anderson_.mix(x_prev_, delta_, x_);
+    gather_x();
+    double phi_new = residual(y_, r_);
+    if (mixed && phi_new > phi) {
+      // The accelerated iterate raised the objective: take the plain local-global step.
+      ++st.rejected;
+      anderson_.reset();
+      for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+        for (int d = 0; d < 3; ++d) x_[3 * n + d] = x_prev_[3 * n + d] + delta_[3 * n + d];
+      });
+      gather_x();
+      phi_new = residual(y_, r_);
     }
+    phi = phi_new;
     ++st.outer;
-    const double dn = owned_norm(delta_), sn = owned_norm(x_, &xn_);
+    const double dn = owned_norm(x_, &x_prev_), sn = owned_norm(x_, &xn_);
     st.relative_change = dn > 0.0 ? dn / sn : 0.0;
-    residual(y_, r_);
   };
   // RNN-1: local targets from the latest x, then the global relaxation, until x settles.
-  residual(y_, r_);
+  phi = residual(y_, r_);
   while (st.outer < scfg.max_outer) {
     outer_loop();
     if (st.relative_change < scfg.outer_tolerance) break;

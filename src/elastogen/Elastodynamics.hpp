@@ -2,12 +2,13 @@
 //! local targets, RNN-2 global relaxation) followed by the true-residual accuracy check.
 #pragma once
 
-#include <functional>
 #include <string>
 #include <vector>
 
 #include "core/Config.hpp"
 #include "core/Timers.hpp"
+#include "elastogen/Anderson.hpp"
+#include "elastogen/Anderson.hpp"
 #include "elastogen/GlobalSolver.hpp"
 #include "elastogen/VoxelSystem.hpp"
 
@@ -16,18 +17,11 @@ namespace gen4d::elastogen {
 struct StepStats {
   int outer = 0;               //!< RNN-1 loops run, extra ones included
   int extra = 0;               //!< loops added by the accuracy check
+  int rejected = 0;            //!< accelerated iterates replaced by the plain step
   long sweeps = 0;             //!< RNN-2 sweeps summed over the loops
   double relative_change = 0;  //!< ||delta|| / ||x - x^n|| of the last loop
   double accuracy = 0;         //!< ||r_true|| / (||M(x-y)/dt^2|| + ||f_ext||)
   bool accurate = true;        //!< accuracy <= solver.accuracy_tolerance
-};
-
-//! The local model of one quadrature point: energy density and first Piola stress.
-//! `k` is the stiffness of the constant global matrix (A_i = k I).
-struct LocalModel {
-  std::string name;
-  double k = 0;
-  std::function<double(const double* F, double* P)> stress;  // used outside hot loops only
 };
 
 class Elastodynamics {
@@ -55,7 +49,8 @@ class Elastodynamics {
 
  private:
   void external_forces(double t, std::vector<double>& f) const;
-  //! r = M(y - x)/dt^2 + f_int(x) on free owned nodes; returns the elastic energy (local).
+  //! r = M(y - x)/dt^2 + f_int(x) on free owned nodes; returns the implicit-Euler objective
+  //! 1/(2 dt^2) ||x - y||_M^2 + E(x), summed over all ranks.
   double residual(const std::vector<double>& y, std::vector<double>& r);
   double internal_forces(const std::vector<double>& x, std::vector<double>& f);
   double owned_norm(const std::vector<double>& a, const std::vector<double>* b = nullptr);
@@ -66,7 +61,8 @@ class Elastodynamics {
   double dt_, mu_, lambda_, k_;
   bool arap_;
   GlobalSolver solver_;
-  std::vector<double> x_, v_, xn_, y_, r_, delta_, fext_, fint_;
+  AndersonMixer anderson_;
+  std::vector<double> x_, v_, xn_, y_, r_, delta_, fext_, fint_, x_prev_;
   std::vector<double> force_region_mass_;
 };
 
