@@ -52,7 +52,8 @@ Elastodynamics::Elastodynamics(VoxelSystem& sys, const Config& cfg, PhaseTimers&
   if (!local.empty()) solver_.reducer().sum(local.data(), force_region_mass_.data(), local.size());
   for (std::size_t f = 0; f < cfg_.forces.size(); ++f)
     if (force_region_mass_[f] == 0.0)
-      log::warn("force region {} contains no free node of the object; it has no effect", f);
+      log::info("warning: force region {} contains no free node of the object; it has no effect",
+                f);
   reset_to_rest();
 }
 

@@ -1,6 +1,5 @@
 #include "elastogen/Simulation.hpp"
 
-#include <chrono>
 #include <cmath>
 #include <csignal>
 #include <filesystem>
@@ -11,6 +10,7 @@
 #include "core/Deck.hpp"
 #include "core/Error.hpp"
 #include "core/Log.hpp"
+#include "core/Progress.hpp"
 #include "geometry/Shape.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/FrameWriter.hpp"
@@ -23,21 +23,10 @@ extern "C" void on_signal(int sig) {
   g_signal = sig;
 }
 
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
 io::NodeBox to_io(const Box& b) {
   return io::NodeBox{b.start, b.count};
 }
 
-std::string format_duration(double s) {
-  if (!std::isfinite(s)) return "?";
-  if (s < 120) return fmt::format("{:.0f} s", s);
-  if (s < 7200) return fmt::format("{:.1f} min", s / 60);
-  return fmt::format("{:.1f} h", s / 3600);
-}
 }  // namespace
 
 DomainLayout layout_domain(const Config& cfg, const geometry::Shape& shape) {
@@ -175,11 +164,21 @@ std::string Simulation::write_checkpoint(const std::string& out_dir) {
   return io::write_checkpoint(comm_, out_dir, s, cfg_.output.checkpoint_keep);
 }
 
-RunResult Simulation::run(const std::string& out_dir, bool append) {
-  RunResult res;
-  const auto t0 = Clock::now();
-  if (rank_ == 0) std::filesystem::create_directories(out_dir);
-  MPI_Barrier(comm_);
+std::unique_ptr<io::FrameWriter> Simulation::open_frames(const std::string& out_dir, bool append) {
+  PhaseTimers::Scope t(timers_, "io");
+  std::string error;
+  if (rank_ == 0) {
+    std::error_code ec;
+    std::filesystem::create_directories(out_dir, ec);
+    if (ec) error = out_dir + ": cannot create the output directory: " + ec.message();
+  }
+  int failed = error.empty() ? 0 : 1;
+  MPI_Bcast(&failed, 1, MPI_INT, 0, comm_);
+  if (failed) throw RuntimeError(rank_ == 0 ? error : out_dir + ": cannot create directory");
+  const std::string path = (std::filesystem::path(out_dir) / "frames.h5").string();
+  if (append)
+    return std::make_unique<io::FrameWriter>(
+        io::FrameWriter::open_append(comm_, path, static_cast<int>(step_)));
   io::GridMeta meta;
   meta.node_dims = layout_.nodes;
   meta.origin = layout_.origin;
@@ -189,84 +188,68 @@ RunResult Simulation::run(const std::string& out_dir, bool append) {
                      {"git_revision", build::git_revision},
                      {"ranks", std::to_string(size_)},
                      {"solver", "elastogen"}};
-  const std::string frames_path = (std::filesystem::path(out_dir) / "frames.h5").string();
-  std::unique_ptr<io::FrameWriter> writer;
-  {
-    PhaseTimers::Scope t(timers_, "io");
-    if (append) {
-      writer = std::make_unique<io::FrameWriter>(
-          io::FrameWriter::open_append(comm_, frames_path, static_cast<int>(step_)));
-    } else {
-      writer = std::make_unique<io::FrameWriter>(comm_, frames_path, meta);
-      writer->write_occupancy(to_io(grid_->owned_cells()), owned_occupancy().data());
-    }
-  }
-  auto write_frame = [&] {
-    PhaseTimers::Scope t(timers_, "io");
-    const auto x = owned_positions();
-    const auto v = owned_velocities();
-    writer->write_frame(time_, static_cast<int>(step_), to_io(grid_->owned_nodes()), x.data(),
-                        v.data());
-    ++frame_index_;
-    next_frame_time_ = time_ + cfg_.output.frame_interval;
-  };
+  auto writer = std::make_unique<io::FrameWriter>(comm_, path, meta);
+  writer->write_occupancy(to_io(grid_->owned_cells()), owned_occupancy().data());
+  return writer;
+}
+
+void Simulation::write_frame(io::FrameWriter& writer) {
+  PhaseTimers::Scope t(timers_, "io");
+  const auto x = owned_positions();
+  const auto v = owned_velocities();
+  writer.write_frame(time_, static_cast<int>(step_), to_io(grid_->owned_nodes()), x.data(),
+                     v.data());
+  ++frame_index_;
+  next_frame_time_ = time_ + cfg_.output.frame_interval;
+}
+
+int Simulation::pending_signal() {
+  const int local = static_cast<int>(g_signal);
+  int sig = 0;
+  MPI_Allreduce(&local, &sig, 1, MPI_INT, MPI_MAX, comm_);
+  if (sig != 0) g_signal = 0;
+  return sig;
+}
+
+RunResult Simulation::run(const std::string& out_dir, bool append) {
+  RunResult res;
+  auto writer = open_frames(out_dir, append);
   const double dt = cfg_.dt;
   const long total_steps = static_cast<long>(std::ceil(cfg_.end_time / dt - 1e-9));
-  if (!append && step_ == 0) write_frame();
-  const long start_step = step_;
-  auto last_report = Clock::now();
-  double outer_sum = 0, sweep_sum = 0, worst_acc = 0;
-  long inaccurate = 0;
+  if (!append && step_ == 0) write_frame(*writer);
+  ProgressLog progress(step_, total_steps, cfg_.output.progress_interval);
   while (step_ < total_steps) {
     const StepStats st = dyn_->step(time_);
     ++step_;
     time_ = step_ * dt;
-    ++res.steps;
-    outer_sum += st.outer;
-    sweep_sum += static_cast<double>(st.sweeps);
-    worst_acc = std::max(worst_acc, st.accuracy);
-    if (!st.accurate) ++inaccurate;
-    if (st.extra > 0)
-      log::info("step {}: accuracy check ran {} extra loop(s), residual {:.2e}{}", step_, st.extra,
-                st.accuracy, st.accurate ? "" : " (above tolerance)");
-    if (time_ + 1e-12 * dt >= next_frame_time_ || step_ == total_steps) write_frame();
-    const int sig_local = static_cast<int>(g_signal);
-    int sig = 0;
-    MPI_Allreduce(&sig_local, &sig, 1, MPI_INT, MPI_MAX, comm_);
+    progress.record(st.outer, st.sweeps, st.accuracy, st.accurate);
+    if (!st.accurate)
+      log::info(
+          "step {}: residual {:.2e} still above solver.accuracy_tolerance after {} extra "
+          "loop(s)",
+          step_, st.accuracy, st.extra);
+    if (time_ + 1e-12 * dt >= next_frame_time_ || step_ == total_steps) write_frame(*writer);
+    const int sig = pending_signal();
     const bool periodic = cfg_.output.checkpoint_every > 0 &&
                           step_ % cfg_.output.checkpoint_every == 0 && step_ < total_steps;
-    if (sig != 0 || periodic) {
-      res.last_checkpoint = write_checkpoint(out_dir);
-      if (sig != 0) {
-        g_signal = 0;
-        log::info("received {}: checkpoint {} written at step {}",
-                  sig == SIGTERM ? "SIGTERM" : "SIGUSR1", res.last_checkpoint, step_);
-        if (sig == SIGTERM) {
-          log::info("stopping; resume with: gen4d restart {}", res.last_checkpoint);
-          res.exit_code = 1;
-          break;
-        }
-      }
+    if (sig != 0 || periodic) res.last_checkpoint = write_checkpoint(out_dir);
+    if (sig != 0)
+      log::info("received {}: checkpoint {} written at step {}",
+                sig == SIGTERM ? "SIGTERM" : "SIGUSR1", res.last_checkpoint, step_);
+    if (sig == SIGTERM) {
+      log::info("stopping; resume with: gen4d restart {}", res.last_checkpoint);
+      res.exit_code = 1;
+      break;
     }
-    const double since = std::chrono::duration<double>(Clock::now() - last_report).count();
-    if (since >= cfg_.output.progress_interval || step_ == total_steps) {
-      last_report = Clock::now();
-      const double el = seconds_since(t0);
-      const double rate = (step_ - start_step) / std::max(el, 1e-9);
-      log::info(
-          "step {:>6}/{}  t = {:.4f} s  {:.2f} steps/s  ETA {}  loops {:.1f}  sweeps {:.0f}  "
-          "residual {:.1e}",
-          step_, total_steps, time_, rate,
-          format_duration((total_steps - step_) / std::max(rate, 1e-12)),
-          outer_sum / std::max(1L, res.steps), sweep_sum / std::max(1L, res.steps), worst_acc);
-    }
+    progress.maybe_print(step_, time_);
   }
   if (res.exit_code == 0) res.last_checkpoint = write_checkpoint(out_dir);
   writer.reset();
-  res.wall_seconds = seconds_since(t0);
-  if (inaccurate > 0)
-    log::warn("{} step(s) ended above solver.accuracy_tolerance (worst {:.2e})", inaccurate,
-              worst_acc);
+  res.steps = progress.steps();
+  res.wall_seconds = progress.elapsed();
+  if (progress.inaccurate_steps() > 0)
+    log::info("warning: {} step(s) ended above solver.accuracy_tolerance (worst {:.2e})",
+              progress.inaccurate_steps(), progress.worst_residual());
   report_timers(res.wall_seconds, res.steps);
   return res;
 }

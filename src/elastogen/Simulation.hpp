@@ -11,6 +11,7 @@
 #include "core/Timers.hpp"
 #include "elastogen/Elastodynamics.hpp"
 #include "geometry/Shape.hpp"
+#include "io/FrameWriter.hpp"
 #include "parallel/Grid.hpp"
 
 namespace gen4d::elastogen {
@@ -59,6 +60,11 @@ class Simulation {
   void unpack_owned(const std::vector<double>& packed, std::vector<double>& field) const;
   std::vector<std::uint8_t> owned_occupancy() const;
   std::string write_checkpoint(const std::string& out_dir);
+  //! Creates out_dir (rank 0, failure shared) and the frame file, or reopens it to append.
+  std::unique_ptr<io::FrameWriter> open_frames(const std::string& out_dir, bool append);
+  void write_frame(io::FrameWriter& writer);
+  //! The signal any rank received since the last call (0 if none); collective.
+  int pending_signal();
   void report_timers(double wall, long steps) const;
 
   MPI_Comm comm_;
