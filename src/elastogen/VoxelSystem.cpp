@@ -83,7 +83,7 @@ void VoxelSystem::apply(double k, double inv_dt2, const double* delta, double* o
           for (int cell = 0; cell < 8; ++cell) {
             if (!(adj_[n] >> cell & 1)) continue;
             const int a = cell & 1, b = (cell >> 1) & 1, c = (cell >> 2) & 1;
-            const int l = (1 - a) + 2 * (1 - b) + 4 * (1 - c);
+            const int l = corner_in_cell(cell);
             const long base = static_cast<long>(n) - (1 - a) - (1 - b) * gx - (1 - c) * gxy;
             for (int mm = 0; mm < 8; ++mm) {
               const double coef = kh * s.K[l][mm];
@@ -111,8 +111,7 @@ void VoxelSystem::diagonal(double k, double inv_dt2, std::vector<double>& diag) 
         double d = mass_[n] * inv_dt2;
         for (int cell = 0; cell < 8; ++cell) {
           if (!(adj_[n] >> cell & 1)) continue;
-          const int l =
-              (1 - (cell & 1)) + 2 * (1 - ((cell >> 1) & 1)) + 4 * (1 - ((cell >> 2) & 1));
+          const int l = corner_in_cell(cell);
           d += k * h_ * s.K[l][l];
         }
         diag[n] = d;

@@ -16,6 +16,12 @@ namespace gen4d::elastogen {
 
 using parallel::Box;
 
+//! A node's neighbour voxel `cell` (bits: +x, +y, +z) has its lower corner at node - 1 + bits;
+//! the node is that voxel's corner 7 - cell (the opposite bits).
+inline int corner_in_cell(int cell) {
+  return 7 - cell;
+}
+
 //! Calls f(linear index in G, i, j, k) for every node of the owned box O, x fastest.
 template <class F>
 void for_owned(const Box& O, const Box& G, F&& f) {
@@ -122,7 +128,7 @@ double VoxelSystem::internal_forces(const StressFn& stress, const double* x, dou
           for (int cell = 0; cell < 8; ++cell) {
             if (!(adj_[n] >> cell & 1)) continue;
             const int a = cell & 1, b = (cell >> 1) & 1, cc = (cell >> 2) & 1;
-            const int l = (1 - a) + 2 * (1 - b) + 4 * (1 - cc);
+            const int l = corner_in_cell(cell);
             const double* src = &cell_forces_[24 * cell_index(i - 1 + a, j - 1 + b, k - 1 + cc)];
             for (int d = 0; d < 3; ++d) acc[d] -= src[3 * l + d];
           }
