@@ -199,7 +199,7 @@ void read_geometries(toml::table& root, const Locator& loc, const fs::path& base
 }
 
 void read_material(const Section& s, MaterialConfig& m) {
-  m.model = s.choice("model", m.model, {"corotated"});
+  m.model = s.choice("model", m.model, {"corotated", "neo_hookean", "stvk", "linear"});
   m.target = s.choice("target", m.target, {"analytic", "arap"});
   m.youngs_modulus = s.number("youngs_modulus");
   require_positive(s, "youngs_modulus", m.youngs_modulus);

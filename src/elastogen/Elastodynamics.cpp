@@ -5,6 +5,9 @@
 #include "core/Log.hpp"
 #include "materials/Arap.hpp"
 #include "materials/FixedCorotated.hpp"
+#include "materials/LinearElastic.hpp"
+#include "materials/NeoHookean.hpp"
+#include "materials/StVK.hpp"
 
 namespace gen4d::elastogen {
 
@@ -21,6 +24,18 @@ auto stress_of(const Material& mat) {
     return psi;
   };
 }
+
+//! Calls f with the pointwise material the deck selects (ARAP for target "arap"); the
+//! runtime name picks one template instantiation of the stencil loop.
+template <class F>
+double with_material(const MaterialConfig& m, F&& f) {
+  const double E = m.youngs_modulus, nu = m.poisson_ratio;
+  if (m.target == "arap") return f(materials::Arap::from_young_poisson(E, nu));
+  if (m.model == "neo_hookean") return f(materials::NeoHookean::from_young_poisson(E, nu));
+  if (m.model == "stvk") return f(materials::StVK::from_young_poisson(E, nu));
+  if (m.model == "linear") return f(materials::LinearElastic::from_young_poisson(E, nu));
+  return f(materials::FixedCorotated::from_young_poisson(E, nu));
+}
 }  // namespace
 
 Elastodynamics::Elastodynamics(VoxelSystem& sys, const Config& cfg, PhaseTimers& timers)
@@ -28,13 +43,7 @@ Elastodynamics::Elastodynamics(VoxelSystem& sys, const Config& cfg, PhaseTimers&
       cfg_(cfg),
       timers_(timers),
       dt_(cfg.dt),
-      mu_(cfg.material.youngs_modulus / (2.0 * (1.0 + cfg.material.poisson_ratio))),
-      lambda_(cfg.material.youngs_modulus * cfg.material.poisson_ratio /
-              ((1.0 + cfg.material.poisson_ratio) * (1.0 - 2.0 * cfg.material.poisson_ratio))),
-      k_(cfg.material.target == "arap"
-             ? 2.0 * mu_
-             : materials::FixedCorotated{mu_, lambda_}.projection_stiffness()),
-      arap_(cfg.material.target == "arap"),
+      k_(with_material(cfg.material, [](const auto& m) { return m.projection_stiffness(); })),
       solver_(sys, cfg.solver, k_, cfg.dt, timers),
       anderson_(cfg.solver.anderson_depth, sys, solver_.reducer()) {
   const std::size_t n = 3 * sys_.ghosted().size();
@@ -94,9 +103,9 @@ void Elastodynamics::external_forces(double t, std::vector<double>& f) const {
 
 double Elastodynamics::internal_forces(const std::vector<double>& x, std::vector<double>& f) {
   // The runtime choice of local model picks one instantiation of the stencil loop.
-  if (arap_) return sys_.internal_forces(stress_of(materials::Arap{k_}), x.data(), f.data());
-  return sys_.internal_forces(stress_of(materials::FixedCorotated{mu_, lambda_}), x.data(),
-                              f.data());
+  return with_material(cfg_.material, [&](const auto& m) {
+    return sys_.internal_forces(stress_of(m), x.data(), f.data());
+  });
 }
 
 double Elastodynamics::residual(const std::vector<double>& y, std::vector<double>& r) {

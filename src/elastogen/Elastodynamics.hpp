@@ -58,8 +58,7 @@ class Elastodynamics {
   VoxelSystem& sys_;
   const Config& cfg_;
   PhaseTimers& timers_;
-  double dt_, mu_, lambda_, k_;
-  bool arap_;
+  double dt_, k_;
   GlobalSolver solver_;
   AndersonMixer anderson_;
   std::vector<double> x_, v_, xn_, y_, r_, delta_, fext_, fint_, x_prev_;

@@ -13,6 +13,9 @@
 // each material's registration line (a header nobody includes would never register).
 #include "materials/Arap.hpp"
 #include "materials/FixedCorotated.hpp"
+#include "materials/LinearElastic.hpp"
+#include "materials/NeoHookean.hpp"
+#include "materials/StVK.hpp"
 
 namespace gen4d::materials {
 
