@@ -73,6 +73,7 @@ void expect_same(const Config& a, const Config& b) {
   EXPECT_EQ(s.accuracy_tolerance, t.accuracy_tolerance);
   EXPECT_EQ(s.max_extra_outer, t.max_extra_outer);
   EXPECT_EQ(s.anderson_depth, t.anderson_depth);
+  EXPECT_EQ(s.method, t.method);
   ASSERT_EQ(a.fixed.size(), b.fixed.size());
   for (std::size_t i = 0; i < a.fixed.size(); ++i)
     expect_box(a.fixed[i].region, b.fixed[i].region.lo, b.fixed[i].region.hi);

@@ -46,6 +46,7 @@ struct MaterialConfig {
 };
 
 struct SolverConfig {
+  std::string method = "elastogen";   //!< "elastogen" | "newton" (reference solver)
   std::string relaxation = "jacobi";  //!< "jacobi" | "cg"
   double jacobi_omega = 0.67;         //!< damping of Jacobi sweeps, (0, 1]
   int max_sweeps = 100;               //!< per outer loop

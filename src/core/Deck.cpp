@@ -211,6 +211,7 @@ void read_material(const Section& s, MaterialConfig& m) {
 }
 
 void read_solver(const Section& s, SolverConfig& v) {
+  v.method = s.choice("method", v.method, {"elastogen", "newton"});
   v.relaxation = s.choice("relaxation", v.relaxation, {"jacobi", "cg"});
   v.jacobi_omega = s.number("jacobi_omega", v.jacobi_omega);
   s.check(v.jacobi_omega > 0 && v.jacobi_omega <= 1, "jacobi_omega",

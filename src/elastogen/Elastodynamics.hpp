@@ -2,6 +2,7 @@
 //! local targets, RNN-2 global relaxation) followed by the true-residual accuracy check.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -10,6 +11,7 @@
 #include "elastogen/Anderson.hpp"
 #include "elastogen/Anderson.hpp"
 #include "elastogen/GlobalSolver.hpp"
+#include "elastogen/NewtonReference.hpp"
 #include "elastogen/VoxelSystem.hpp"
 
 namespace gen4d::elastogen {
@@ -61,6 +63,7 @@ class Elastodynamics {
   double dt_, k_;
   GlobalSolver solver_;
   AndersonMixer anderson_;
+  std::unique_ptr<NewtonReference> newton_;  //!< set for solver.method = "newton"
   std::vector<double> x_, v_, xn_, y_, r_, delta_, fext_, fint_, x_prev_;
   std::vector<double> force_region_mass_;
 };
