@@ -1,0 +1,42 @@
+#!/usr/bin/env python3
+"""Plot the tip trajectories written by validate_cantilever --csv (one panel per material)."""
+import csv
+import sys
+from collections import defaultdict
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def main():
+    if len(sys.argv) != 3:
+        sys.exit("usage: plot_cantilever.py TIP.csv OUT.png")
+    rows = defaultdict(list)
+    with open(sys.argv[1], newline="") as f:
+        for r in csv.DictReader(f):
+            rows[(r["model"], float(r["nu"]))].append(r)
+    models = sorted({m for m, _ in rows})
+    fig, axes = plt.subplots(1, len(models), figsize=(5 * len(models), 4), sharey=True)
+    for ax, model in zip(axes if len(models) > 1 else [axes], models):
+        for (m, nu), rs in sorted(rows.items()):
+            if m != model:
+                continue
+            t = [float(r["time"]) for r in rs]
+            z0 = float(rs[0]["z_newton"])
+            line, = ax.plot(t, [float(r["z_newton"]) - z0 for r in rs], label=f"Newton nu={nu}")
+            ax.plot(t, [float(r["z_elastogen"]) - z0 for r in rs], "o", ms=3,
+                    color=line.get_color(), label=f"ElastoGen nu={nu}")
+        ax.set_title(model)
+        ax.set_xlabel("time [s]")
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("tip displacement z [m]") if len(models) > 1 else axes.set_ylabel("z [m]")
+    axes[0].legend(fontsize=7) if len(models) > 1 else axes.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(sys.argv[2], dpi=120)
+    print(f"wrote {sys.argv[2]}")
+
+
+if __name__ == "__main__":
+    main()
