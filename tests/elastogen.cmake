@@ -12,3 +12,15 @@ if(TARGET validate_cantilever)
                          ENVIRONMENT "${GEN4D_TEST_ENV}" PROCESSORS ${np} TIMEOUT 600)
   endforeach()
 endif()
+
+# Small twin of the kernel benchmark: it must run and print its JSON at 1 and 2 ranks.
+if(TARGET bench_elastogen)
+  foreach(np 1 2)
+    add_test(NAME bench_elastogen_quick_np${np}
+             COMMAND ${MPIEXEC_EXECUTABLE} ${MPIEXEC_NUMPROC_FLAG} ${np} --oversubscribe
+                     $<TARGET_FILE:bench_elastogen> --cells 8 --sweeps 5 --stream-n 1000000)
+    set_tests_properties(bench_elastogen_quick_np${np} PROPERTIES
+                         ENVIRONMENT "${GEN4D_TEST_ENV}" PROCESSORS ${np} TIMEOUT 300
+                         PASS_REGULAR_EXPRESSION "\"node_updates_per_s\": [0-9]")
+  endforeach()
+endif()

@@ -13,6 +13,22 @@ VoxelSystem::VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, do
   for (int m = 0; m < 8; ++m)
     corner_offset_[m] = static_cast<long>(
         G.index(G.start[0] + (m & 1), G.start[1] + ((m >> 1) & 1), G.start[2] + ((m >> 2) & 1)));
+  // The interior 27-point stencil: neighbour (dx, dy, dz) collects K[l][m] from every voxel
+  // holding both nodes.
+  const HexStencil& hs = HexStencil::get();
+  interior_stencil_.fill(0.0);
+  for (int t = 0; t < 27; ++t)
+    interior_offset_[t] =
+        (t % 3 - 1) + (t / 3 % 3 - 1) * G.count[0] + (t / 9 - 1) * G.count[0] * G.count[1];
+  for (int cell = 0; cell < 8; ++cell) {
+    const int l = corner_in_cell(cell);
+    const int a = cell & 1, b = (cell >> 1) & 1, c = (cell >> 2) & 1;
+    for (int m = 0; m < 8; ++m) {
+      // Corner m of that voxel sits at node offset (a - 1 + mx, b - 1 + my, c - 1 + mz).
+      const int dx = a - 1 + (m & 1), dy = b - 1 + ((m >> 1) & 1), dz = c - 1 + ((m >> 2) & 1);
+      interior_stencil_[(dz + 1) * 9 + (dy + 1) * 3 + (dx + 1)] += hs.K[l][m];
+    }
+  }
   adj_.assign(G.size(), 0);
   mass_.assign(G.size(), 0.0);
   free_.assign(G.size(), 0);
@@ -77,7 +93,20 @@ void VoxelSystem::apply(double k, double inv_dt2, const double* delta, double* o
       for (long i = O.start[0]; i < O.start[0] + O.count[0]; ++i) {
         const std::size_t n = G.index(i, j, kk);
         double acc[3] = {0, 0, 0};
-        if (free_[n]) {
+        if (free_[n] && adj_[n] == 0xFF) {
+          // Interior node: the 8 voxels' rows summed into one 27-point stencil (81 instead
+          // of 192 multiply-adds). Chosen by the node's own neighbourhood only, so the
+          // arithmetic still does not depend on the decomposition.
+          const double m = mass_[n] * inv_dt2;
+          for (int d = 0; d < 3; ++d) acc[d] = m * delta[3 * n + d];
+          for (int t = 0; t < 27; ++t) {
+            const double coef = kh * interior_stencil_[t];
+            const double* src = &delta[3 * (static_cast<long>(n) + interior_offset_[t])];
+            acc[0] += coef * src[0];
+            acc[1] += coef * src[1];
+            acc[2] += coef * src[2];
+          }
+        } else if (free_[n]) {
           const double m = mass_[n] * inv_dt2;
           for (int d = 0; d < 3; ++d) acc[d] = m * delta[3 * n + d];
           for (int cell = 0; cell < 8; ++cell) {

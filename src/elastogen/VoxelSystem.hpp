@@ -85,6 +85,8 @@ class VoxelSystem {
   std::vector<std::uint8_t> free_, fixed_;
   std::vector<double> cell_forces_;  // 24 per adjacent cell
   long global_solid_ = 0, global_free_ = 0;
+  std::array<double, 27> interior_stencil_{};  // unit-cube coefficients, x fastest
+  std::array<long, 27> interior_offset_{};     // ghosted linear offsets of the 27 neighbours
   std::array<long, 8> corner_offset_{};  // ghosted linear offset of corner m from the cell base
 };
 
