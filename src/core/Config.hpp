@@ -63,6 +63,17 @@ struct FixedConfig {
   BoxRegion region;  //!< nodes inside are held at their rest positions
 };
 
+//! Nodes inside move on a prescribed rigid path: rotation by angular_velocity * tau about an
+//! axis through `center`, plus velocity * tau, with tau = clamp(t, start, end) - start.
+struct KinematicConfig {
+  BoxRegion region;
+  Vec3d center{0, 0, 0};            //!< m, a point on the rotation axis
+  Vec3d velocity{0, 0, 0};          //!< m/s
+  Vec3d angular_velocity{0, 0, 0};  //!< rad/s (axis direction times rate)
+  double start = 0;                 //!< s
+  double end = 1e300;               //!< s; the region holds its last pose afterwards
+};
+
 struct ForceConfig {
   BoxRegion region;      //!< nodes inside share the force, by mass
   Vec3d force{0, 0, 0};  //!< total force in newtons
@@ -91,6 +102,7 @@ struct Config {
   MaterialConfig material;
   SolverConfig solver;
   std::vector<FixedConfig> fixed;
+  std::vector<KinematicConfig> kinematic;
   std::vector<ForceConfig> forces;
   OutputConfig output;
 

@@ -245,6 +245,22 @@ FixedConfig read_fixed(const Section& s) {
   return f;
 }
 
+KinematicConfig read_kinematic(const Section& s) {
+  s.reject_unknown(key_names("kinematic"));
+  KinematicConfig k;
+  k.region.lo = s.vec3("lo");
+  k.region.hi = s.vec3("hi");
+  require_box(s, k.region.lo, k.region.hi);
+  k.center = s.vec3("center", k.center);
+  k.velocity = s.vec3("velocity", k.velocity);
+  k.angular_velocity = s.vec3("angular_velocity", k.angular_velocity);
+  k.start = s.number("start", k.start);
+  require_at_least(s, "start", k.start, 0);
+  k.end = s.number("end", k.end);
+  s.check(k.end > k.start, "end", fmt::format("must be > start ({}), got {}", k.start, k.end));
+  return k;
+}
+
 ForceConfig read_force(const Section& s) {
   s.reject_unknown(key_names("force"));
   ForceConfig f;
@@ -350,6 +366,8 @@ Config parse_deck(const std::string& text, const std::string& source_name,
   read_material(table_section(root, "material", loc), c.material);
   read_solver(table_section(root, "solver", loc), c.solver);
   for (const Section& s : array_sections(root, "fixed", loc)) c.fixed.push_back(read_fixed(s));
+  for (const Section& s : array_sections(root, "kinematic", loc))
+    c.kinematic.push_back(read_kinematic(s));
   for (const Section& s : array_sections(root, "force", loc)) c.forces.push_back(read_force(s));
   read_output(table_section(root, "output", loc), c.output);
 

@@ -74,6 +74,24 @@ Elastodynamics::Elastodynamics(VoxelSystem& sys, const Config& cfg, PhaseTimers&
   reset_to_rest();
 }
 
+std::array<double, 3> Elastodynamics::prescribed(const KinematicConfig& k, const Vec3d& X,
+                                                 double t) {
+  const double tau = std::min(std::max(t, k.start), k.end) - k.start;
+  const double w[3] = {k.angular_velocity[0], k.angular_velocity[1], k.angular_velocity[2]};
+  const double wn = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+  double r[3] = {X[0] - k.center[0], X[1] - k.center[1], X[2] - k.center[2]};
+  if (wn > 0) {
+    // Rodrigues: rotate r by angle |w| tau about w / |w|.
+    const double a[3] = {w[0] / wn, w[1] / wn, w[2] / wn}, th = wn * tau;
+    const double c = std::cos(th), s = std::sin(th), dot = a[0] * r[0] + a[1] * r[1] + a[2] * r[2];
+    const double cr[3] = {a[1] * r[2] - a[2] * r[1], a[2] * r[0] - a[0] * r[2],
+                          a[0] * r[1] - a[1] * r[0]};
+    for (int d = 0; d < 3; ++d) r[d] = r[d] * c + cr[d] * s + a[d] * dot * (1 - c);
+  }
+  return {k.center[0] + r[0] + k.velocity[0] * tau, k.center[1] + r[1] + k.velocity[1] * tau,
+          k.center[2] + r[2] + k.velocity[2] * tau};
+}
+
 void Elastodynamics::reset_to_rest() {
   const Box& G = sys_.ghosted();
   for (long k = G.start[2]; k < G.start[2] + G.count[2]; ++k)
@@ -164,6 +182,16 @@ StepStats Elastodynamics::step(double t) {
       // First iterate: the inertial prediction; Newton starts without the dt^2 f/m term,
       // which for large steps lands far outside its region of convergence.
       x_[q] = newton_ && free[n] ? xn_[q] + dt_ * v_[q] : y_[q];
+    }
+  });
+  // Kinematic regions: their nodes take the prescribed pose at the end of the step.
+  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long i, long j, long k) {
+    if (!sys_.fixed_mask()[n]) return;
+    const auto p = sys_.rest_position(i, j, k);
+    for (const auto& kin : cfg_.kinematic) {
+      if (!kin.region.contains({p[0], p[1], p[2]})) continue;
+      const auto q = prescribed(kin, {p[0], p[1], p[2]}, t + dt_);
+      for (int d = 0; d < 3; ++d) x_[3 * n + d] = y_[3 * n + d] = q[d];
     }
   });
   {

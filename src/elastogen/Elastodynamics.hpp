@@ -2,6 +2,7 @@
 //! local targets, RNN-2 global relaxation) followed by the true-residual accuracy check.
 #pragma once
 
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -47,6 +48,8 @@ class Elastodynamics {
   };
   Energy energy();
   double stiffness() const { return k_; }
+  //! Pose of rest point X on a kinematic region's path at time t.
+  static std::array<double, 3> prescribed(const KinematicConfig& k, const Vec3d& X, double t);
   const GlobalSolver& global_solver() const { return solver_; }
 
  private:

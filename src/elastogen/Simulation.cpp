@@ -68,8 +68,11 @@ Simulation::Simulation(MPI_Comm comm, const Config& cfg) : comm_(comm), cfg_(cfg
                        Eigen::Vector3d(layout_.origin[0], layout_.origin[1], layout_.origin[2]),
                        cfg_.voxel_size, c.start, hi, occ);
   }
+  std::vector<BoxRegion> held;
+  for (const auto& f : cfg_.fixed) held.push_back(f.region);
+  for (const auto& k : cfg_.kinematic) held.push_back(k.region);
   sys_ = std::make_unique<VoxelSystem>(*grid_, layout_.origin, cfg_.voxel_size, std::move(occ),
-                                       cfg_.material.density, cfg_.fixed);
+                                       cfg_.material.density, held);
   if (sys_->global_solid_cells() == 0)
     throw InputError(cfg_.source + ": [[geometry]] produces no solid voxel at voxel_size " +
                      fmt::format("{:g}", cfg_.voxel_size) + " m; use a smaller voxel_size");

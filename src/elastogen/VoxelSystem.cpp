@@ -6,7 +6,7 @@ namespace gen4d::elastogen {
 
 VoxelSystem::VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, double h,
                          std::vector<std::uint8_t> occupancy, double density,
-                         const std::vector<FixedConfig>& fixed)
+                         const std::vector<BoxRegion>& held)
     : grid_(grid), origin_(origin), h_(h), occ_(std::move(occupancy)) {
   const Box& G = ghosted();
   const Box& C = cells();
@@ -50,7 +50,7 @@ VoxelSystem::VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, do
         }
         bool is_fixed = false;
         const auto p = rest_position(i, j, k);
-        for (const auto& fx : fixed) is_fixed = is_fixed || fx.region.contains({p[0], p[1], p[2]});
+        for (const auto& r : held) is_fixed = is_fixed || r.contains({p[0], p[1], p[2]});
         fixed_[n] = adj_[n] != 0 && is_fixed;
         free_[n] = adj_[n] != 0 && !is_fixed;
         local_free += free_[n];

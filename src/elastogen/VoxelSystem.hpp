@@ -36,10 +36,11 @@ void for_owned(const Box& O, const Box& G, F&& f) {
 //! the decomposition: the same arithmetic runs whatever the rank count.
 class VoxelSystem {
  public:
-  //! `occupancy` covers grid.adjacent_cells() (1 = solid), as voxelized by this rank.
+  //! `occupancy` covers grid.adjacent_cells() (1 = solid), as voxelized by this rank; nodes
+  //! inside a `held` region are not unknowns (fixed or moved on a prescribed path).
   VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, double h,
               std::vector<std::uint8_t> occupancy, double density,
-              const std::vector<FixedConfig>& fixed);
+              const std::vector<BoxRegion>& held);
 
   const parallel::NodeGrid& grid() const { return grid_; }
   const Box& ghosted() const { return grid_.ghosted_nodes(); }
