@@ -13,10 +13,6 @@
 //      Newton reference (PETSc SNES on the same voxels and energy) step by step.
 //   3. Record the tip's mean vertical position; report max |z_E - z_N| / max |z_N - z_0|.
 //   4. Exit 1 if any case exceeds the tolerance (default 2 %), so the driver is also a check.
-#include <mpi.h>
-#include <petscsys.h>
-
-#include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -27,6 +23,7 @@
 #include "core/Error.hpp"
 #include "core/Log.hpp"
 #include "elastogen/Simulation.hpp"
+#include "validation/DriverCommon.hpp"
 
 using namespace gen4d;
 
@@ -66,22 +63,8 @@ hi = [0.001, 1.0, 1.0]
   return parse_deck(text, "<cantilever " + model + ">", ".");
 }
 
-//! Mean z of the free end's nodes (x = L), summed over ranks.
 double tip_z(elastogen::Simulation& sim) {
-  const auto& g = sim.grid();
-  const auto& O = g.owned_nodes();
-  const auto& G = g.ghosted_nodes();
-  const long i = g.global_nodes()[0] - 1;
-  double local[2] = {0, 0}, global[2];
-  if (i >= O.start[0] && i < O.start[0] + O.count[0])
-    for (long k = O.start[2]; k < O.start[2] + O.count[2]; ++k)
-      for (long j = O.start[1]; j < O.start[1] + O.count[1]; ++j)
-        if (sim.system().mass()[G.index(i, j, k)] > 0) {
-          local[0] += sim.dynamics().x()[3 * G.index(i, j, k) + 2];
-          local[1] += 1;
-        }
-  MPI_Allreduce(local, global, 2, MPI_DOUBLE, MPI_SUM, g.comm());
-  return global[0] / global[1];
+  return driver::end_face_mean(sim, 2);
 }
 
 std::vector<double> trajectory(const Config& cfg, int steps, double& seconds, long& loops) {
@@ -142,33 +125,15 @@ int run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  MPI_Init(&argc, &argv);
-  int rank = 0;
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  log::set_rank(rank);
-  PetscOptionsSetValue(nullptr, "-no_signal_handler", nullptr);
-  PetscInitializeNoArguments();
   Options o;
-  CLI::App app{"ElastoGen vs Newton reference: cantilever under gravity, 3 materials x 3 nu"};
-  app.add_option("--steps", o.steps, "Time steps of 0.01 s")->check(CLI::Range(1, 100000));
-  app.add_option("--voxel", o.voxel, "Voxel size in metres")->check(CLI::PositiveNumber);
-  app.add_option("--youngs", o.youngs, "Young's modulus in Pa")->check(CLI::PositiveNumber);
-  app.add_option("--tolerance", o.tolerance, "Allowed max error / max tip displacement");
-  app.add_option("--csv", o.csv, "Write tip trajectories to this CSV file");
-  int code = 0;
-  try {
-    app.parse(argc, argv);
-    code = run(o);
-  } catch (const CLI::ParseError& e) {
-    code = app.exit(e);
-  } catch (const InputError& e) {
-    if (rank == 0) log::error_str(e.what());
-    code = 2;
-  } catch (const std::exception& e) {
-    if (rank == 0) log::error_str(e.what());
-    code = 1;
-  }
-  PetscFinalize();
-  MPI_Finalize();
-  return code;
+  return driver::main_with(
+      argc, argv, "ElastoGen vs Newton reference: cantilever under gravity, 3 materials x 3 nu",
+      [&](CLI::App& app) {
+        app.add_option("--steps", o.steps, "Time steps of 0.01 s")->check(CLI::Range(1, 100000));
+        app.add_option("--voxel", o.voxel, "Voxel size in metres")->check(CLI::PositiveNumber);
+        app.add_option("--youngs", o.youngs, "Young's modulus in Pa")->check(CLI::PositiveNumber);
+        app.add_option("--tolerance", o.tolerance, "Allowed max error / max tip displacement");
+        app.add_option("--csv", o.csv, "Write tip trajectories to this CSV file");
+      },
+      [&] { return run(o); });
 }

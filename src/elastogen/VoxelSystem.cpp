@@ -88,25 +88,38 @@ void VoxelSystem::apply(double k, double inv_dt2, const double* delta, double* o
   const Box& O = owned();
   const double kh = k * h_;
   const long gx = G.count[0], gxy = G.count[0] * G.count[1];
+  double coef[27];
+  for (int t = 0; t < 27; ++t) coef[t] = kh * interior_stencil_[t];
+  auto interior = [&](std::size_t n) { return free_[n] && adj_[n] == 0xFF; };
   for (long kk = O.start[2]; kk < O.start[2] + O.count[2]; ++kk)
-    for (long j = O.start[1]; j < O.start[1] + O.count[1]; ++j)
-      for (long i = O.start[0]; i < O.start[0] + O.count[0]; ++i) {
+    for (long j = O.start[1]; j < O.start[1] + O.count[1]; ++j) {
+      const long i_end = O.start[0] + O.count[0];
+      for (long i = O.start[0]; i < i_end;) {
         const std::size_t n = G.index(i, j, kk);
-        double acc[3] = {0, 0, 0};
-        if (free_[n] && adj_[n] == 0xFF) {
-          // Interior node: the 8 voxels' rows summed into one 27-point stencil (81 instead
-          // of 192 multiply-adds). Chosen by the node's own neighbourhood only, so the
-          // arithmetic still does not depend on the decomposition.
-          const double m = mass_[n] * inv_dt2;
-          for (int d = 0; d < 3; ++d) acc[d] = m * delta[3 * n + d];
-          for (int t = 0; t < 27; ++t) {
-            const double coef = kh * interior_stencil_[t];
-            const double* src = &delta[3 * (static_cast<long>(n) + interior_offset_[t])];
-            acc[0] += coef * src[0];
-            acc[1] += coef * src[1];
-            acc[2] += coef * src[2];
+        if (interior(n)) {
+          // A run of interior nodes along x: the 8 voxels' rows summed into one scalar
+          // 27-point stencil, applied to the run's interleaved xyz values as one flat array
+          // (the same coefficient acts on all three components), so the loops vectorise.
+          // Each value is still m delta + sum over t in stencil order, whatever the run's
+          // length, so the arithmetic does not depend on the decomposition.
+          long len = 1;
+          while (i + len < i_end && interior(n + len)) ++len;
+          double* o = out + 3 * n;
+          const double* dl = delta + 3 * n;
+          for (long q = 0; q < len; ++q) {
+            const double m = mass_[n + q] * inv_dt2;
+            for (int d = 0; d < 3; ++d) o[3 * q + d] = m * dl[3 * q + d];
           }
-        } else if (free_[n]) {
+          for (int t = 0; t < 27; ++t) {
+            const double c = coef[t];
+            const double* src = dl + 3 * interior_offset_[t];
+            for (long q = 0; q < 3 * len; ++q) o[q] += c * src[q];
+          }
+          i += len;
+          continue;
+        }
+        double acc[3] = {0, 0, 0};
+        if (free_[n]) {
           const double m = mass_[n] * inv_dt2;
           for (int d = 0; d < 3; ++d) acc[d] = m * delta[3 * n + d];
           for (int cell = 0; cell < 8; ++cell) {
@@ -115,16 +128,18 @@ void VoxelSystem::apply(double k, double inv_dt2, const double* delta, double* o
             const int l = corner_in_cell(cell);
             const long base = static_cast<long>(n) - (1 - a) - (1 - b) * gx - (1 - c) * gxy;
             for (int mm = 0; mm < 8; ++mm) {
-              const double coef = kh * s.K[l][mm];
+              const double cf = kh * s.K[l][mm];
               const double* src = &delta[3 * (base + corner_offset_[mm])];
-              acc[0] += coef * src[0];
-              acc[1] += coef * src[1];
-              acc[2] += coef * src[2];
+              acc[0] += cf * src[0];
+              acc[1] += cf * src[1];
+              acc[2] += cf * src[2];
             }
           }
         }
         for (int d = 0; d < 3; ++d) out[3 * n + d] = acc[d];
+        ++i;
       }
+    }
 }
 
 void VoxelSystem::diagonal(double k, double inv_dt2, std::vector<double>& diag) const {

@@ -1,0 +1,151 @@
+// bench_solvers — time per frame of ElastoGen vs the Newton reference at equal accuracy on
+// a beam of >= 100k DoFs, printed as JSON (a benchmark, not a test: it measures, it does not
+// assert a speed).
+//
+// Sample runs:
+//   mpirun -np 2 build/drivers/bench_solvers                 # 100 x 20 x 20 voxels, 134k DoFs
+//   build/drivers/bench_solvers --cells 20 --frames 4        # small
+//
+// Description:
+//   1. Beam 1.0 x 0.2 x 0.2 m clamped at x = 0, corotated (analytic target), E = 1e7 Pa,
+//      nu = 0.3, rho = 1000, released under gravity; one frame = one step of dt = 0.01 s.
+//   2. The Newton reference (PETSc SNES, CG + GAMG) runs `frames` steps: the ground truth and
+//      the baseline time.
+//   3. ElastoGen runs the same frames with the accuracy tolerance at 1e-3, tightened by
+//      steps of 3x until the tip trajectory is within `--accuracy` (default 1 %) of Newton's
+//      (max |z_E - z_N| / max |z_N - z_N(0)|); that run's time per frame is compared.
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "core/Deck.hpp"
+#include "core/Log.hpp"
+#include "elastogen/Simulation.hpp"
+#include "validation/DriverCommon.hpp"
+
+using namespace gen4d;
+
+namespace {
+
+struct Options {
+  int cells = 20;  //!< voxels through the 0.2 m thickness (beam is 5x longer)
+  int frames = 10;
+  double accuracy = 0.01;
+};
+
+Config beam(const Options& o, const std::string& method, double accuracy_tolerance) {
+  return parse_deck(fmt::format(R"(
+[simulation]
+dt = 0.01
+end_time = {}
+[domain]
+voxel_size = {}
+padding = 0
+[[geometry]]
+type = "box"
+lo = [0.0, 0.0, 0.0]
+hi = [1.0, 0.2, 0.2]
+[material]
+model = "corotated"
+target = "analytic"
+youngs_modulus = 1.0e7
+poisson_ratio = 0.3
+density = 1000.0
+[solver]
+method = "{}"
+accuracy_tolerance = {}
+max_extra_outer = 1000
+[[fixed]]
+lo = [-1.0, -1.0, -1.0]
+hi = [0.001, 1.0, 1.0]
+)",
+                                0.01 * o.frames, 0.2 / o.cells, method, accuracy_tolerance),
+                    "<bench beam>", ".");
+}
+
+struct Run {
+  std::vector<double> tip;
+  double seconds = 0;
+  long loops = 0, sweeps = 0, dofs = 0;
+  std::string phases;  //!< per-phase seconds as a JSON object body
+};
+
+Run simulate(const Options& o, const std::string& method, double tol) {
+  const Config cfg = beam(o, method, tol);
+  log::set_quiet(true);
+  elastogen::Simulation sim(MPI_COMM_WORLD, cfg);
+  log::set_quiet(false);
+  Run r;
+  const auto& d = sim.grid().global_nodes();
+  r.dofs = 3 * d[0] * d[1] * d[2];
+  r.tip.push_back(driver::end_face_mean(sim, 2));
+  MPI_Barrier(MPI_COMM_WORLD);
+  const double t0 = MPI_Wtime();
+  for (int s = 0; s < o.frames; ++s) {
+    const auto st = sim.dynamics().step(s * cfg.dt);
+    r.loops += st.outer;
+    r.sweeps += st.sweeps;
+    r.tip.push_back(driver::end_face_mean(sim, 2));
+  }
+  r.seconds = MPI_Wtime() - t0;
+  for (const auto& [name, sec] : sim.timers().totals())
+    r.phases += fmt::format("{}\"{}\": {:.3f}", r.phases.empty() ? "" : ", ", name, sec);
+  return r;
+}
+
+double tip_error(const Run& a, const Run& ref) {
+  double err = 0, amp = 0;
+  for (std::size_t s = 0; s < ref.tip.size(); ++s) {
+    err = std::max(err, std::fabs(a.tip[s] - ref.tip[s]));
+    amp = std::max(amp, std::fabs(ref.tip[s] - ref.tip[0]));
+  }
+  return err / amp;
+}
+
+int run(const Options& o) {
+  int ranks = 1, rank = 0;
+  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  const Run n = simulate(o, "newton", 1e-3);
+  log::info("newton: {:.3f} s/frame, {} DoFs", n.seconds / o.frames, n.dofs);
+  Run e;
+  double tol = 1e-3, err = 0;
+  for (int attempt = 0; attempt < 5; ++attempt, tol /= 3) {
+    e = simulate(o, "elastogen", tol);
+    err = tip_error(e, n);
+    log::info("elastogen accuracy_tolerance {:.1e}: {:.3f} s/frame, tip error {:.3f} %", tol,
+              e.seconds / o.frames, 100 * err);
+    if (err <= o.accuracy) break;
+  }
+  const double speedup = n.seconds / e.seconds;
+  if (rank == 0)
+    std::printf(
+        "{\n  \"benchmark\": \"elastogen_vs_newton\",\n  \"ranks\": %d,\n  \"dofs\": %ld,\n"
+        "  \"frames\": %d,\n  \"dt\": 0.01,\n  \"target_tip_error\": %g,\n"
+        "  \"newton\": {\"seconds_per_frame\": %.4f, \"newton_iterations_per_frame\": %.2f, "
+        "\"krylov_iterations_per_frame\": %.1f, \"phases\": {%s}},\n"
+        "  \"elastogen\": {\"seconds_per_frame\": %.4f, \"accuracy_tolerance\": %.2e, "
+        "\"tip_error\": %.5f, \"loops_per_frame\": %.2f, \"sweeps_per_frame\": %.1f, "
+        "\"phases\": {%s}},\n  \"speedup_elastogen_over_newton\": %.3f\n}\n",
+        ranks, n.dofs, o.frames, o.accuracy, n.seconds / o.frames, double(n.loops) / o.frames,
+        double(n.sweeps) / o.frames, n.phases.c_str(), e.seconds / o.frames, tol, err,
+        double(e.loops) / o.frames, double(e.sweeps) / o.frames, e.phases.c_str(), speedup);
+  return err <= o.accuracy ? 0 : 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  return driver::main_with(
+      argc, argv, "Time per frame: ElastoGen vs Newton reference at equal accuracy",
+      [&](CLI::App& app) {
+        app.add_option("--cells", o.cells, "Voxels through the beam's thickness (length: 5x)")
+            ->check(CLI::Range(2, 400));
+        app.add_option("--frames", o.frames, "Frames (steps of 0.01 s)")
+            ->check(CLI::Range(1, 10000));
+        app.add_option("--accuracy", o.accuracy, "Tip error ElastoGen must reach vs Newton");
+      },
+      [&] { return run(o); });
+}

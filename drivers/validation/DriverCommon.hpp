@@ -1,0 +1,69 @@
+//! Shared by the validation and benchmark drivers: MPI/PETSc start-up with the CLI parse and
+//! the exit-code convention (0 pass, 1 target missed or failure, 2 bad input), and probes
+//! of a beam's free end.
+#pragma once
+
+#include <mpi.h>
+#include <petscsys.h>
+
+#include <CLI/CLI.hpp>
+#include <exception>
+#include <functional>
+
+#include "core/Error.hpp"
+#include "core/Log.hpp"
+#include "elastogen/Simulation.hpp"
+
+namespace gen4d::driver {
+
+//! Initialises MPI and PETSc, lets `setup` add options to the app, parses, runs `body` and
+//! maps exceptions to exit codes. Returns the process exit code.
+inline int main_with(int argc, char** argv, const char* description,
+                     const std::function<void(CLI::App&)>& setup,
+                     const std::function<int()>& body) {
+  MPI_Init(&argc, &argv);
+  int rank = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  log::set_rank(rank);
+  PetscOptionsSetValue(nullptr, "-no_signal_handler", nullptr);
+  PetscInitializeNoArguments();
+  CLI::App app{description};
+  setup(app);
+  int code = 0;
+  try {
+    app.parse(argc, argv);
+    code = body();
+  } catch (const CLI::ParseError& e) {
+    code = app.exit(e);
+  } catch (const InputError& e) {
+    if (rank == 0) log::error_str(e.what());
+    code = 2;
+  } catch (const std::exception& e) {
+    if (rank == 0) log::error_str(e.what());
+    code = 1;
+  }
+  PetscFinalize();
+  MPI_Finalize();
+  return code;
+}
+
+//! Mean position component `d` of the object's nodes on the grid plane i = last (the free
+//! end of a beam along x with padding 0), summed over ranks.
+inline double end_face_mean(elastogen::Simulation& sim, int d) {
+  const auto& g = sim.grid();
+  const auto& O = g.owned_nodes();
+  const auto& G = g.ghosted_nodes();
+  const long i = g.global_nodes()[0] - 1;
+  double local[2] = {0, 0}, global[2];
+  if (i >= O.start[0] && i < O.start[0] + O.count[0])
+    for (long k = O.start[2]; k < O.start[2] + O.count[2]; ++k)
+      for (long j = O.start[1]; j < O.start[1] + O.count[1]; ++j)
+        if (sim.system().mass()[G.index(i, j, k)] > 0) {
+          local[0] += sim.dynamics().x()[3 * G.index(i, j, k) + d];
+          local[1] += 1;
+        }
+  MPI_Allreduce(local, global, 2, MPI_DOUBLE, MPI_SUM, g.comm());
+  return global[0] / global[1];
+}
+
+}  // namespace gen4d::driver

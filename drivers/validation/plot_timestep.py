@@ -1,0 +1,36 @@
+#!/usr/bin/env python3
+"""Plot the tip trajectories written by validate_timestep --csv."""
+import csv
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def main():
+    if len(sys.argv) != 3:
+        sys.exit("usage: plot_timestep.py TIMESTEP.csv OUT.png")
+    with open(sys.argv[1], newline="") as f:
+        rows = list(csv.DictReader(f))
+    if not rows:
+        sys.exit(f"{sys.argv[1]}: no rows")
+    t = [float(r["t"]) for r in rows]
+    fig, ax = plt.subplots(figsize=(6, 4))
+    z0 = float(rows[0]["tip_newton"])
+    ax.plot(t, [float(r["tip_newton_fine"]) - z0 for r in rows], "k-", lw=0.8,
+            label="Newton, dt/5")
+    ax.plot(t, [float(r["tip_newton"]) - z0 for r in rows], "-", label="Newton, dt")
+    ax.plot(t, [float(r["tip_elastogen"]) - z0 for r in rows], "o", ms=3, label="ElastoGen, dt")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("tip displacement z [m]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(sys.argv[2], dpi=120)
+    print(f"wrote {sys.argv[2]}")
+
+
+if __name__ == "__main__":
+    main()
