@@ -19,7 +19,7 @@ endfunction()
 
 # Static cantilever vs Euler-Bernoulli at H/2 and H/4 (3 % target at H/4), both solvers.
 gen4d_driver_twin(validate_analytic_quick validate_analytic "1;2"
-                  ARGS --levels 2,4 --skip-frequency)
+                  ARGS --static-levels 2,4 --skip-frequency)
 # Large time step on a coarse soft beam: stability table and ElastoGen vs Newton <= 1 %.
 gen4d_driver_twin(validate_timestep_quick validate_timestep "1;2"
                   ARGS --voxel 0.025 --end-time 0.1 --skip-fine)

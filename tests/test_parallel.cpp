@@ -3,6 +3,7 @@
 #include <mpi.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -107,4 +108,63 @@ TEST(Reduce, FusedSumsAreIndependentOfDecomposition) {
   std::vector<double> global(n_sums);
   red.sum(local.data(), global.data(), n_sums);
   for (int s = 0; s < n_sums; ++s) EXPECT_EQ(global[s], serial[s].value()) << s;
+}
+
+TEST(Reduce, ExactSumIsExactAndRoundedOnce) {
+  // Cancellation: the exact answer survives, whatever the order or split.
+  ExactSum a;
+  for (double v : {1e300, 3.0, -1e300, 1e-300, -3.0}) a.add(v);
+  EXPECT_EQ(a.value(), 1e-300);
+  // Rounding happens once, to nearest, ties to even.
+  ExactSum tie, above;
+  for (double v : {1.0, std::ldexp(1.0, -53)}) tie.add(v);
+  EXPECT_EQ(tie.value(), 1.0);
+  for (double v : {1.0, std::ldexp(1.0, -53), std::ldexp(1.0, -160)}) above.add(v);
+  EXPECT_EQ(above.value(), 1.0 + std::ldexp(1.0, -52));
+  // Negative sums, subnormals and the extremes of the range.
+  ExactSum neg;
+  for (double v : {-2.5, std::numeric_limits<double>::denorm_min(), 1.0}) neg.add(v);
+  EXPECT_EQ(neg.value(), -1.5);
+  ExactSum tiny;
+  for (int i = 0; i < 3; ++i) tiny.add(std::numeric_limits<double>::denorm_min());
+  EXPECT_EQ(tiny.value(), 3 * std::numeric_limits<double>::denorm_min());
+  ExactSum big;
+  big.add(std::numeric_limits<double>::max());
+  big.add(-std::numeric_limits<double>::max());
+  big.add(-0.25);
+  EXPECT_EQ(big.value(), -0.25);
+  // Non-finite terms propagate.
+  ExactSum inf;
+  inf.add(1.0);
+  inf.add(std::numeric_limits<double>::infinity());
+  EXPECT_EQ(inf.value(), std::numeric_limits<double>::infinity());
+  ExactSum nan;
+  nan.add(std::numeric_limits<double>::quiet_NaN());
+  EXPECT_TRUE(std::isnan(nan.value()));
+}
+
+TEST(Reduce, NearCancellingSumsAreIndependentOfDecomposition) {
+  // Pairs +x, -x of random magnitude plus a few tiny terms, each pair split across ranks:
+  // the global sum must be exactly the tiny terms' sum at any rank count.
+  int rank, size;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-1, 1);
+  ExactSum local, tiny;
+  for (int i = 0; i < 20000; ++i) {
+    const double x = u(rng) * std::pow(10.0, 12 * u(rng));
+    if (i % size == rank) local.add(x);
+    if ((i + 1) % size == rank) local.add(-x);
+    if (i % 1000 == 0) {
+      const double t = 1e-20 * u(rng);
+      tiny.add(t);
+      if (i % size == rank) local.add(t);
+    }
+  }
+  Reducer red(MPI_COMM_WORLD);
+  double global = 0;
+  red.sum(&local, &global, 1);
+  EXPECT_EQ(global, tiny.value());
+  EXPECT_NE(global, 0.0);
 }

@@ -28,7 +28,7 @@ auto stress_of(const Material& mat) {
 //! Calls f with the pointwise material the deck selects (ARAP for target "arap"); the
 //! runtime name picks one template instantiation of the stencil loop.
 template <class F>
-double with_material(const MaterialConfig& m, F&& f) {
+auto with_material(const MaterialConfig& m, F&& f) {
   const double E = m.youngs_modulus, nu = m.poisson_ratio;
   if (m.target == "arap") return f(materials::Arap::from_young_poisson(E, nu));
   if (m.model == "neo_hookean") return f(materials::NeoHookean::from_young_poisson(E, nu));
@@ -127,7 +127,8 @@ void Elastodynamics::external_forces(double t, std::vector<double>& f) const {
   });
 }
 
-double Elastodynamics::internal_forces(const std::vector<double>& x, std::vector<double>& f) {
+parallel::ExactSum Elastodynamics::internal_forces(const std::vector<double>& x,
+                                                   std::vector<double>& f) {
   // The runtime choice of local model picks one instantiation of the stencil loop.
   return with_material(cfg_.material, [&](const auto& m) {
     return sys_.internal_forces(stress_of(m), x.data(), f.data());
@@ -284,9 +285,8 @@ StepStats Elastodynamics::step(double t) {
 
 Elastodynamics::Energy Elastodynamics::energy() {
   Energy e;
-  const double el = internal_forces(x_, fint_);
   parallel::ExactSum s[3];
-  s[1].add(el);
+  s[1] = internal_forces(x_, fint_);
   const auto& m = sys_.mass();
   for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
     for (int d = 0; d < 3; ++d) {

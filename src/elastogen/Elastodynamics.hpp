@@ -10,7 +10,6 @@
 #include "core/Config.hpp"
 #include "core/Timers.hpp"
 #include "elastogen/Anderson.hpp"
-#include "elastogen/Anderson.hpp"
 #include "elastogen/GlobalSolver.hpp"
 #include "elastogen/NewtonReference.hpp"
 #include "elastogen/VoxelSystem.hpp"
@@ -57,7 +56,7 @@ class Elastodynamics {
   //! r = M(y - x)/dt^2 + f_int(x) on free owned nodes; returns the implicit-Euler objective
   //! 1/(2 dt^2) ||x - y||_M^2 + E(x), summed over all ranks.
   double residual(const std::vector<double>& y, std::vector<double>& r);
-  double internal_forces(const std::vector<double>& x, std::vector<double>& f);
+  parallel::ExactSum internal_forces(const std::vector<double>& x, std::vector<double>& f);
   double owned_norm(const std::vector<double>& a, const std::vector<double>* b = nullptr);
 
   VoxelSystem& sys_;

@@ -69,10 +69,11 @@ class VoxelSystem {
   //! Diagonal of the same operator on owned nodes (1 on non-free nodes).
   void diagonal(double k, double inv_dt2, std::vector<double>& diag) const;
 
-  //! Internal forces f = -dE/dx on owned free nodes and the elastic energy of owned cells.
-  //! `stress(F, P)` returns the energy density and writes the first Piola stress.
+  //! Internal forces f = -dE/dx on owned free nodes; returns the elastic energy of owned
+  //! cells, unrounded. `stress(F, P)` returns the energy density and writes the first Piola
+  //! stress.
   template <class StressFn>
-  double internal_forces(const StressFn& stress, const double* x, double* f);
+  parallel::ExactSum internal_forces(const StressFn& stress, const double* x, double* f);
 
  private:
   std::size_t cell_index(long ci, long cj, long ck) const { return cells().index(ci, cj, ck); }
@@ -92,7 +93,8 @@ class VoxelSystem {
 };
 
 template <class StressFn>
-double VoxelSystem::internal_forces(const StressFn& stress, const double* x, double* f) {
+parallel::ExactSum VoxelSystem::internal_forces(const StressFn& stress, const double* x,
+                                                double* f) {
   const HexStencil& s = HexStencil::get();
   const Box& C = cells();
   const Box& G = ghosted();
@@ -138,7 +140,7 @@ double VoxelSystem::internal_forces(const StressFn& stress, const double* x, dou
         }
         for (int d = 0; d < 3; ++d) f[3 * n + d] = acc[d];
       }
-  return energy.hi + energy.lo;  // rank-local; callers reduce
+  return energy;  // rank-local; callers reduce it exactly
 }
 
 }  // namespace gen4d::elastogen

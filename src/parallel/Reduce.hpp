@@ -1,30 +1,76 @@
-//! Decomposition-independent global sums: each value is accumulated in double-double
-//! (error-free TwoSum), so the rounded result does not depend on how the terms were split
-//! across ranks or ordered inside one — the basis of bit-identical runs at any rank count.
+//! Decomposition-independent global sums. Every term is added exactly into a fixed-point
+//! superaccumulator (32-bit digits spanning the whole double range), so a sum is a function of
+//! the multiset of its terms only — not of how they were split across ranks or ordered
+//! inside one — and is rounded to a double once, at the end. This is the basis of
+//! bit-identical runs at any rank count, even when a sum cancels to (almost) nothing.
 #pragma once
 
 #include <mpi.h>
 
+#include <array>
 #include <cstddef>
+#include <cstdint>
+#include <cstring>
 #include <vector>
 
 namespace gen4d::parallel {
 
-//! A compensated accumulator (hi + lo represents the running sum almost exactly).
-struct ExactSum {
-  double hi = 0.0, lo = 0.0;
+//! Exact accumulator of doubles: value = sum_i digit[i] 2^(32 i - 1074); digits are signed
+//! 64-bit with headroom, carried into canonical form every 2^30 additions and on demand.
+//! Infinities and NaNs are summed separately in floating point and win in value().
+class ExactSum {
+ public:
+  static constexpr int kDigits = 67;  //!< 2098 bits of range + one digit of carry room
+
   void add(double v) {
-    const double s = hi + v;
-    const double bp = s - hi;
-    const double err = (hi - (s - bp)) + (v - bp);
-    hi = s;
-    lo += err;
+    std::uint64_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    const int exponent = static_cast<int>((bits >> 52) & 0x7FF);
+    std::uint64_t mantissa = bits & ((std::uint64_t{1} << 52) - 1);
+    if (exponent == 0x7FF) {
+      special_ += v;
+      return;
+    }
+    if (exponent == 0) {
+      if (mantissa == 0) return;
+    } else {
+      mantissa |= std::uint64_t{1} << 52;
+    }
+    // v = +-mantissa 2^(e - 1075) with e >= 1: the mantissa's lowest bit is bit e - 1 above
+    // 2^-1074.
+    const int pos = (exponent == 0 ? 1 : exponent) - 1;
+    const int d = pos >> 5;
+    const unsigned __int128 m = static_cast<unsigned __int128>(mantissa) << (pos & 31);
+    const auto c0 = static_cast<std::int64_t>(static_cast<std::uint64_t>(m) & 0xFFFFFFFFu);
+    const auto c1 = static_cast<std::int64_t>(static_cast<std::uint64_t>(m >> 32) & 0xFFFFFFFFu);
+    const auto c2 = static_cast<std::int64_t>(static_cast<std::uint64_t>(m >> 64));
+    if (bits >> 63) {
+      digit_[d] -= c0;
+      digit_[d + 1] -= c1;
+      digit_[d + 2] -= c2;
+    } else {
+      digit_[d] += c0;
+      digit_[d + 1] += c1;
+      digit_[d + 2] += c2;
+    }
+    if (++pending_ == kMaxPending) normalize();
   }
-  void add(const ExactSum& o) {
-    add(o.hi);
-    add(o.lo);
-  }
-  double value() const { return hi + lo; }
+  void add(const ExactSum& o);
+  //! The exact sum rounded to the nearest double (ties to even).
+  double value() const;
+  //! Carries every digit into [0, 2^32) except the signed top one.
+  void normalize();
+
+  //! Wire format for reductions: kDigits canonical digits, then the special sum's bits.
+  static constexpr int kWords = kDigits + 1;
+  void pack(std::int64_t* out) const;
+  void unpack_add(const std::int64_t* in);
+
+ private:
+  static constexpr int kMaxPending = 1 << 30;
+  std::array<std::int64_t, kDigits> digit_{};
+  int pending_ = 0;
+  double special_ = 0.0;
 };
 
 //! Fused reduction: sums n accumulators across the communicator in one collective.
@@ -32,7 +78,7 @@ struct ExactSum {
 class Reducer {
  public:
   explicit Reducer(MPI_Comm comm);
-  //! One MPI_Allgather of all accumulators, then a fixed rank-order double-double sum.
+  //! One MPI_Allgather of all accumulators' digits, summed exactly, rounded once.
   void sum(const ExactSum* local, double* global, std::size_t n);
   //! Convenience: plain doubles (each already a rank-local sum).
   double sum(double local);
@@ -43,7 +89,7 @@ class Reducer {
  private:
   MPI_Comm comm_;
   int size_ = 1;
-  std::vector<double> send_, recv_;
+  std::vector<std::int64_t> send_, recv_;
 };
 
 //! Local dot product of two arrays restricted to entries with mask != 0 (if given),
