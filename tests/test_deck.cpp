@@ -84,6 +84,24 @@ void expect_same(const Config& a, const Config& b) {
     EXPECT_EQ(a.forces[i].start, b.forces[i].start);
     EXPECT_EQ(a.forces[i].end, b.forces[i].end);
   }
+  ASSERT_EQ(a.colliders.size(), b.colliders.size());
+  for (std::size_t i = 0; i < a.colliders.size(); ++i) {
+    const ColliderConfig &c = a.colliders[i], &d = b.colliders[i];
+    EXPECT_EQ(c.type, d.type);
+    EXPECT_EQ(c.point, d.point);
+    EXPECT_EQ(c.normal, d.normal);
+    expect_box(c.box, d.box.lo, d.box.hi);
+    EXPECT_EQ(c.friction, d.friction);
+  }
+  ASSERT_EQ(a.tractions.size(), b.tractions.size());
+  for (std::size_t i = 0; i < a.tractions.size(); ++i) {
+    const TractionConfig &t = a.tractions[i], &u = b.tractions[i];
+    expect_box(t.region, u.region.lo, u.region.hi);
+    EXPECT_EQ(t.traction, u.traction);
+    EXPECT_EQ(t.pressure, u.pressure);
+    EXPECT_EQ(t.start, u.start);
+    EXPECT_EQ(t.end, u.end);
+  }
   EXPECT_EQ(a.output.dir, b.output.dir);
   EXPECT_EQ(a.output.frame_interval, b.output.frame_interval);
   EXPECT_EQ(a.output.checkpoint_every, b.output.checkpoint_every);
@@ -142,6 +160,21 @@ TEST(Deck, FullDeckValues) {
   EXPECT_EQ(c.forces[0].force, (Vec3d{0, 0, -50}));
   EXPECT_EQ(c.forces[0].start, 0.1);
   EXPECT_EQ(c.forces[0].end, 0.3);
+  ASSERT_EQ(c.colliders.size(), 2u);
+  EXPECT_EQ(c.colliders[0].type, "plane");
+  EXPECT_EQ(c.colliders[0].point, (Vec3d{0, 0, -0.1}));
+  EXPECT_EQ(c.colliders[0].normal, (Vec3d{0, 0, 2}));  // as written; colliders normalise it
+  EXPECT_EQ(c.colliders[0].friction, 0.3);
+  EXPECT_EQ(c.colliders[1].type, "box");
+  expect_box(c.colliders[1].box, {2, -1, -1}, {3, 1, 1});
+  EXPECT_EQ(c.colliders[1].friction, ColliderConfig{}.friction);
+  EXPECT_EQ(ColliderConfig{}.friction, 0.5);  // the documented default
+  ASSERT_EQ(c.tractions.size(), 1u);
+  expect_box(c.tractions[0].region, {0.9, -0.2, -0.2}, {1.2, 0.4, 0.4});
+  EXPECT_EQ(c.tractions[0].traction, (Vec3d{0, 1, 0}));
+  EXPECT_EQ(c.tractions[0].pressure, 1e3);
+  EXPECT_EQ(c.tractions[0].start, 0.05);
+  EXPECT_EQ(c.tractions[0].end, 0.2);
   EXPECT_EQ(c.output.dir, "out/beam");
   EXPECT_EQ(c.output.frame_interval, 0.01);
   EXPECT_EQ(c.output.checkpoint_every, 100);
@@ -160,6 +193,8 @@ TEST(Deck, MinimalDeckTakesDefaults) {
   EXPECT_EQ(c.material.target, "arap");
   EXPECT_TRUE(c.fixed.empty());
   EXPECT_TRUE(c.forces.empty());
+  EXPECT_TRUE(c.colliders.empty());
+  EXPECT_TRUE(c.tractions.empty());
   Config expected = c;
   expected.solver = defaults.solver;
   expected.output = defaults.output;
@@ -204,7 +239,9 @@ TEST(Deck, OverridesAddKeysTablesAndElements) {
                  {"output.checkpoint_every=5", "solver.max_sweeps=50", "material.target=arap",
                   "fixed.0.lo=[-1,-1,-1]", "fixed.0.hi=[1,1,-0.4]", "force.0.lo=[-1,-1,0.4]",
                   "force.0.hi=[1,1,1]", "force.0.force=[0,0,2.5]", "force.0.start=0.5",
-                  "geometry.1.type=box", "geometry.1.lo=[0,0,0]", "geometry.1.hi=[1,1,1]"});
+                  "geometry.1.type=box", "geometry.1.lo=[0,0,0]", "geometry.1.hi=[1,1,1]",
+                  "collider.0.type=plane", "collider.0.point=[0,0,-1]", "collider.0.normal=[0,0,1]",
+                  "traction.0.lo=[-1,-1,-1]", "traction.0.hi=[1,1,1]", "traction.0.pressure=5"});
   EXPECT_EQ(c.output.checkpoint_every, 5);
   EXPECT_EQ(c.solver.max_sweeps, 50);
   EXPECT_EQ(c.material.target, "arap");
@@ -217,6 +254,13 @@ TEST(Deck, OverridesAddKeysTablesAndElements) {
   ASSERT_EQ(c.geometry.size(), 2u);
   EXPECT_EQ(c.geometry[1].type, "box");
   EXPECT_EQ(c.geometry[1].hi, (Vec3d{1, 1, 1}));
+  ASSERT_EQ(c.colliders.size(), 1u);
+  EXPECT_EQ(c.colliders[0].point, (Vec3d{0, 0, -1}));
+  EXPECT_EQ(c.colliders[0].friction, 0.5);
+  ASSERT_EQ(c.tractions.size(), 1u);
+  EXPECT_EQ(c.tractions[0].pressure, 5.0);
+  EXPECT_EQ(c.tractions[0].traction, (Vec3d{0, 0, 0}));
+  EXPECT_EQ(c.tractions[0].end, TractionConfig{}.end);
 }
 
 TEST(Deck, RoundTripReproducesConfig) {

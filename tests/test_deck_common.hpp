@@ -83,6 +83,25 @@ force = [0, 0, -50]
 start = 0.1
 end = 0.3
 
+[[collider]]
+type = "plane"
+point = [0, 0, -0.1]
+normal = [0, 0, 2]
+friction = 0.3
+
+[[collider]]
+type = "box"
+lo = [2, -1, -1]
+hi = [3, 1, 1]
+
+[[traction]]
+lo = [0.9, -0.2, -0.2]
+hi = [1.2, 0.4, 0.4]
+traction = [0, 1, 0]
+pressure = 1e3
+start = 0.05
+end = 0.2
+
 [output]
 dir = "out/beam"
 frame_interval = 0.01

@@ -184,6 +184,44 @@ TEST(DeckErrors, OtherRanges) {
   expect_error("keep.toml", h.text, h.line, "output.checkpoint_keep", "must be >= 1");
 }
 
+TEST(DeckErrors, Colliders) {
+  auto e = edit("type = \"plane\"", "type = \"plan\"");
+  expect_error("collider_type.toml", e.text, e.line, "collider.0.type",
+               "must be one of plane, box, got 'plan' (did you mean 'plane'?)");
+  auto f = edit("normal = [0, 0, 2]", "normal = [0, 0, 0]");
+  expect_error("collider_normal.toml", f.text, f.line, "collider.0.normal",
+               "must not be the zero vector");
+  auto g = edit("hi = [3, 1, 1]", "hi = [3, 1, -1]");
+  expect_error("collider_box.toml", g.text, g.line, "collider.1.hi", "must be > lo");
+  auto h = edit("friction = 0.3", "friction = -0.1");
+  expect_error("collider_friction.toml", h.text, h.line, "collider.0.friction",
+               "must be >= 0, got -0.1");
+  auto i = edit("friction = 0.3", "friction = 0.3\nlo = [0, 0, 0]");
+  expect_error("collider_foreign.toml", i.text, i.line + 1, "collider.0.lo",
+               "not a key of collider type 'plane'");
+  auto j = edit("normal = [0, 0, 2]", "");
+  expect_error("collider_missing.toml", j.text, line_of(kFullDeck, "type = \"plane\"") - 1,
+               "collider.0.normal", "missing required key");
+  auto k = edit("normal = [0, 0, 2]", "normal = [0, 0, 2]\nfrictoin = 0.1");
+  expect_error("collider_typo.toml", k.text, k.line + 1, "collider.0.frictoin",
+               "did you mean 'collider.0.friction'?");
+}
+
+TEST(DeckErrors, Tractions) {
+  auto e = edit("hi = [1.2, 0.4, 0.4]", "hi = [0.9, 0.4, 0.4]");
+  expect_error("traction_box.toml", e.text, e.line, "traction.0.hi", "must be > lo");
+  auto f = edit("end = 0.2", "end = 0.01");
+  expect_error("traction_end.toml", f.text, f.line, "traction.0.end",
+               "must be > start (0.05), got 0.01");
+  std::string text = replace_line(kFullDeck, "traction = [0, 1, 0]", "");
+  text = replace_line(text, "pressure = 1e3", "");
+  expect_error("traction_empty.toml", text, line_of(kFullDeck, "[[traction]]"), "traction.0",
+               "needs 'traction' (vec3, Pa) or 'pressure' (Pa)");
+  auto g = edit("pressure = 1e3", "pressure = \"high\"");
+  expect_error("traction_pressure.toml", g.text, g.line, "traction.0.pressure",
+               "expected a number, got string");
+}
+
 TEST(DeckErrors, MissingDeckFile) {
   try {
     load_deck((scratch_dir() / "no_such_deck.toml").string(), {});

@@ -81,6 +81,25 @@ struct ForceConfig {
   double end = 1e300;    //!< s (exclusive)
 };
 
+//! A static rigid obstacle the object cannot enter, with Coulomb friction on contact.
+struct ColliderConfig {
+  std::string type;       //!< "plane" | "box"
+  Vec3d point{0, 0, 0};   //!< plane: a point on it
+  Vec3d normal{0, 0, 1};  //!< plane: normal towards the allowed side (any length > 0)
+  BoxRegion box;          //!< box: the object is kept outside [lo, hi]
+  double friction = 0.5;  //!< Coulomb coefficient mu >= 0
+};
+
+//! A surface load on the object's boundary faces whose centre lies in `region`, fixed in the
+//! reference configuration (dead load), applied for start <= t < end.
+struct TractionConfig {
+  BoxRegion region;
+  Vec3d traction{0, 0, 0};  //!< Pa (N per m^2 of reference face)
+  double pressure = 0;      //!< Pa, along the inward reference normal (positive pushes in)
+  double start = 0;         //!< s
+  double end = 1e300;       //!< s (exclusive)
+};
+
 struct OutputConfig {
   std::string dir = "gen4d-out";
   double frame_interval = 0;  //!< s; 0 = every step
@@ -104,6 +123,8 @@ struct Config {
   std::vector<FixedConfig> fixed;
   std::vector<KinematicConfig> kinematic;
   std::vector<ForceConfig> forces;
+  std::vector<ColliderConfig> colliders;
+  std::vector<TractionConfig> tractions;
   OutputConfig output;
 
   std::string source;  //!< deck path ("<embedded>" for built-in text)

@@ -120,12 +120,12 @@ std::vector<std::string> geometry_keys(const std::string& type) {
   return {"type", "file", "grid", "scale", "translate"};  // vdb
 }
 
-//! Rejects keys that exist for some geometry type but not for this one.
-void reject_foreign_geometry_keys(const Section& s, const std::string& type) {
-  const std::vector<std::string> own = geometry_keys(type);
+//! Rejects keys of `table` that exist for some of its types but not for `type` (keys `own`).
+void reject_foreign_keys(const Section& s, std::string_view table, const std::string& type,
+                         const std::vector<std::string>& own) {
   const toml::node* first = nullptr;
   std::string first_key;
-  for (const std::string& key : key_names("geometry")) {
+  for (const std::string& key : key_names(table)) {
     const toml::node* n = s.node(key);
     if (!n || std::find(own.begin(), own.end(), key) != own.end()) continue;
     if (!first || n->source().begin.line < first->source().begin.line) {
@@ -134,8 +134,13 @@ void reject_foreign_geometry_keys(const Section& s, const std::string& type) {
     }
   }
   if (first)
-    s.fail(first_key, fmt::format("not a key of geometry type '{}' (its keys: {})", type,
+    s.fail(first_key, fmt::format("not a key of {} type '{}' (its keys: {})", table, type,
                                   fmt::join(own, ", ")));
+}
+
+//! Rejects keys that exist for some geometry type but not for this one.
+void reject_foreign_geometry_keys(const Section& s, const std::string& type) {
+  reject_foreign_keys(s, "geometry", type, geometry_keys(type));
 }
 
 //! Resolves `file` against the deck's folder, checks it, and stores the absolute path so the
@@ -275,6 +280,48 @@ ForceConfig read_force(const Section& s) {
   return f;
 }
 
+ColliderConfig read_collider(const Section& s) {
+  s.reject_unknown(key_names("collider"));
+  ColliderConfig c;
+  s.string("type");  // presence and type first, then the value
+  c.type = s.choice("type", "", {"plane", "box"});
+  reject_foreign_keys(s, "collider", c.type,
+                      c.type == "plane"
+                          ? std::vector<std::string>{"type", "point", "normal", "friction"}
+                          : std::vector<std::string>{"type", "lo", "hi", "friction"});
+  if (c.type == "plane") {
+    c.point = s.vec3("point");
+    c.normal = s.vec3("normal");
+    const double n2 =
+        c.normal[0] * c.normal[0] + c.normal[1] * c.normal[1] + c.normal[2] * c.normal[2];
+    s.check(n2 > 0, "normal", fmt::format("must not be the zero vector, got {}", c.normal));
+  } else {
+    c.box.lo = s.vec3("lo");
+    c.box.hi = s.vec3("hi");
+    require_box(s, c.box.lo, c.box.hi);
+  }
+  c.friction = s.number("friction", c.friction);
+  require_at_least(s, "friction", c.friction, 0);
+  return c;
+}
+
+TractionConfig read_traction(const Section& s) {
+  s.reject_unknown(key_names("traction"));
+  TractionConfig t;
+  t.region.lo = s.vec3("lo");
+  t.region.hi = s.vec3("hi");
+  require_box(s, t.region.lo, t.region.hi);
+  if (!s.has("traction") && !s.has("pressure"))
+    s.fail_table("needs 'traction' (vec3, Pa) or 'pressure' (Pa), or both");
+  t.traction = s.vec3("traction", t.traction);
+  t.pressure = s.number("pressure", t.pressure);
+  t.start = s.number("start", t.start);
+  require_at_least(s, "start", t.start, 0);
+  t.end = s.number("end", t.end);
+  s.check(t.end > t.start, "end", fmt::format("must be > start ({}), got {}", t.start, t.end));
+  return t;
+}
+
 void read_output(const Section& s, OutputConfig& o) {
   o.dir = s.string("dir", o.dir);
   s.check(!o.dir.empty(), "dir", "must not be empty");
@@ -369,6 +416,10 @@ Config parse_deck(const std::string& text, const std::string& source_name,
   for (const Section& s : array_sections(root, "kinematic", loc))
     c.kinematic.push_back(read_kinematic(s));
   for (const Section& s : array_sections(root, "force", loc)) c.forces.push_back(read_force(s));
+  for (const Section& s : array_sections(root, "collider", loc))
+    c.colliders.push_back(read_collider(s));
+  for (const Section& s : array_sections(root, "traction", loc))
+    c.tractions.push_back(read_traction(s));
   read_output(table_section(root, "output", loc), c.output);
 
   c.text = write_deck_text(root);

@@ -74,6 +74,22 @@ const std::vector<TableSpec>& schema() {
         {"force", K::Vec3},
         {"start", K::Number},
         {"end", K::Number}}},
+      {"collider",
+       true,
+       {{"type", K::String},
+        {"point", K::Vec3},
+        {"normal", K::Vec3},
+        {"lo", K::Vec3},
+        {"hi", K::Vec3},
+        {"friction", K::Number}}},
+      {"traction",
+       true,
+       {{"lo", K::Vec3},
+        {"hi", K::Vec3},
+        {"traction", K::Vec3},
+        {"pressure", K::Number},
+        {"start", K::Number},
+        {"end", K::Number}}},
       {"output",
        false,
        {{"dir", K::String},
@@ -212,6 +228,10 @@ void Section::reject_unknown(const std::vector<std::string>& allowed) const {
 
 void Section::fail(std::string_view key, const std::string& message) const {
   loc_.fail(node(key), key_path(key), message);
+}
+
+void Section::fail_table(const std::string& message) const {
+  loc_.fail(header_, path_, message);
 }
 
 const toml::node& Section::required(std::string_view key) const {

@@ -86,6 +86,8 @@ class Section {
   void replace(std::string_view key, const std::string& value);
 
   [[noreturn]] void fail(std::string_view key, const std::string& message) const;
+  //! A problem of the table as a whole, located at its header.
+  [[noreturn]] void fail_table(const std::string& message) const;
   void check(bool ok, std::string_view key, const std::string& message) const {
     if (!ok) fail(key, message);
   }

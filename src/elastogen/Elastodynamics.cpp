@@ -1,5 +1,6 @@
 #include "elastogen/Elastodynamics.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/Log.hpp"
@@ -71,7 +72,116 @@ Elastodynamics::Elastodynamics(VoxelSystem& sys, const Config& cfg, PhaseTimers&
     if (force_region_mass_[f] == 0.0)
       log::info("warning: force region {} contains no free node of the object; it has no effect",
                 f);
+  for (const auto& c : cfg_.colliders) colliders_.emplace_back(c);
+  build_traction_loads();
   reset_to_rest();
+}
+
+void Elastodynamics::build_traction_loads() {
+  // Every boundary face (solid voxel on one side, empty voxel or outside on the other) sends a
+  // quarter of its load to each of its 4 corner nodes. An owned node finds its share itself:
+  // the faces through it separate pairs of its 8 neighbour voxels, which the ghosted
+  // occupancy holds, so each share is computed by the rank that owns the node, in a fixed
+  // order, whatever the decomposition (as the lumped masses are).
+  const double h = sys_.h(), quarter = 0.25 * h * h;
+  traction_loads_.assign(cfg_.tractions.size(), {});
+  if (cfg_.tractions.empty()) return;
+  std::vector<long long> local_quarters(cfg_.tractions.size(), 0);
+  std::vector<std::array<double, 3>> load(cfg_.tractions.size());
+  std::vector<int> faces(cfg_.tractions.size());
+  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long i, long j, long k) {
+    if (sys_.mass()[n] == 0.0) return;  // touches no solid voxel
+    const auto p = sys_.rest_position(i, j, k);
+    std::fill(load.begin(), load.end(), std::array<double, 3>{0.0, 0.0, 0.0});
+    std::fill(faces.begin(), faces.end(), 0);
+    for (int a = 0; a < 3; ++a) {
+      const int b = (a + 1) % 3, c = (a + 2) % 3;
+      for (int q = 0; q < 4; ++q) {
+        // The face in the plane x_a = p_a between voxels `lower` and `upper` (bit a = 0 / 1).
+        int lower = 0;
+        lower |= (q & 1) << b;
+        lower |= ((q >> 1) & 1) << c;
+        const int upper = lower | 1 << a;
+        auto solid = [&](int cell) {
+          return sys_.solid(i - 1 + (cell & 1), j - 1 + ((cell >> 1) & 1),
+                            k - 1 + ((cell >> 2) & 1));
+        };
+        const bool s_lo = solid(lower), s_hi = solid(upper);
+        if (s_lo == s_hi) continue;
+        double normal[3] = {0, 0, 0};  // outward: from the solid voxel to the empty one
+        normal[a] = s_lo ? 1.0 : -1.0;
+        Vec3d centre = {p[0], p[1], p[2]};
+        centre[b] += ((lower >> b & 1) - 0.5) * h;
+        centre[c] += ((lower >> c & 1) - 0.5) * h;
+        for (std::size_t r = 0; r < cfg_.tractions.size(); ++r) {
+          const TractionConfig& tc = cfg_.tractions[r];
+          if (!tc.region.contains(centre)) continue;
+          ++faces[r];
+          for (int d = 0; d < 3; ++d)
+            load[r][d] += quarter * (tc.traction[d] - tc.pressure * normal[d]);
+        }
+      }
+    }
+    for (std::size_t r = 0; r < cfg_.tractions.size(); ++r) {
+      local_quarters[r] += faces[r];
+      if (faces[r] > 0 && sys_.free_mask()[n])  // held nodes ignore loads, as with [[force]]
+        traction_loads_[r].push_back({n, {load[r][0], load[r][1], load[r][2]}});
+    }
+  });
+  for (std::size_t r = 0; r < cfg_.tractions.size(); ++r) {
+    const long long quarters = solver_.reducer().sum(local_quarters[r]);
+    if (quarters == 0)
+      log::info(
+          "warning: traction region {} contains no boundary face of the object; it has no "
+          "effect",
+          r);
+    else
+      log::info("traction region {}: {} boundary faces, {:g} m^2", r, quarters / 4,
+                static_cast<double>(quarters) * quarter);
+  }
+}
+
+std::array<double, 3> Elastodynamics::traction_force(double t) {
+  parallel::ExactSum s[3];
+  for (std::size_t r = 0; r < cfg_.tractions.size(); ++r) {
+    const TractionConfig& tc = cfg_.tractions[r];
+    if (t < tc.start || t >= tc.end) continue;
+    for (const NodeLoad& l : traction_loads_[r])
+      for (int d = 0; d < 3; ++d) s[d].add(l.f[d]);
+  }
+  std::array<double, 3> g{};
+  solver_.reducer().sum(s, g.data(), 3);
+  return g;
+}
+
+void Elastodynamics::resolve_contacts(StepStats& st) {
+  // After the implicit solve, as a post-step projection: each free owned node reads only its
+  // own x^n and x, so the result does not depend on the decomposition. This is a first-order
+  // (in dt) contact model: a resting body's support comes from nodes that sink into the
+  // obstacle during each step's solve and are pushed back out, which lowers it by O(g dt^2)
+  // times its mass over the contact nodes' mass (see inputs/README.md, [[collider]]).
+  const auto& free = sys_.free_mask();
+  long long contacts = 0;
+  double deepest = 0;
+  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+    if (!free[n]) return;
+    bool hit = false;
+    for (const Collider& c : colliders_) {
+      const double depth = c.resolve(&xn_[3 * n], &x_[3 * n]);
+      if (depth > 0) {
+        hit = true;
+        deepest = std::max(deepest, depth);
+      }
+    }
+    contacts += hit;
+  });
+  {
+    PhaseTimers::Scope tt(timers_, "halo");
+    solver_.halo().gather(x_.data());
+  }
+  PhaseTimers::Scope tt(timers_, "reduction");
+  st.contacts = solver_.reducer().sum(contacts);
+  st.penetration = solver_.reducer().max(deepest);
 }
 
 std::array<double, 3> Elastodynamics::prescribed(const KinematicConfig& k, const Vec3d& X,
@@ -125,6 +235,12 @@ void Elastodynamics::external_forces(double t, std::vector<double>& f) const {
       for (int d = 0; d < 3; ++d) f[3 * n + d] += fc.force[d] * m[n] / force_region_mass_[r];
     }
   });
+  for (std::size_t r = 0; r < cfg_.tractions.size(); ++r) {
+    const TractionConfig& tc = cfg_.tractions[r];
+    if (t < tc.start || t >= tc.end) continue;
+    for (const NodeLoad& l : traction_loads_[r])
+      for (int d = 0; d < 3; ++d) f[3 * l.node + d] += l.f[d];
+  }
 }
 
 parallel::ExactSum Elastodynamics::internal_forces(const std::vector<double>& x,
@@ -273,6 +389,8 @@ StepStats Elastodynamics::step(double t) {
     st.accuracy = accuracy();
   }
   st.accurate = st.accuracy <= scfg.accuracy_tolerance;
+  // Static colliders act on the end-of-step positions, identically for both solvers.
+  if (!colliders_.empty()) resolve_contacts(st);
   for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
     for (int d = 0; d < 3; ++d) v_[3 * n + d] = (x_[3 * n + d] - xn_[3 * n + d]) / dt_;
   });

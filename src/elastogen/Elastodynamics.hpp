@@ -10,6 +10,7 @@
 #include "core/Config.hpp"
 #include "core/Timers.hpp"
 #include "elastogen/Anderson.hpp"
+#include "elastogen/Collider.hpp"
 #include "elastogen/GlobalSolver.hpp"
 #include "elastogen/NewtonReference.hpp"
 #include "elastogen/VoxelSystem.hpp"
@@ -24,6 +25,8 @@ struct StepStats {
   double relative_change = 0;  //!< ||delta|| / ||x - x^n|| of the last loop
   double accuracy = 0;         //!< ||r_true|| / (||M(x-y)/dt^2|| + ||f_ext||)
   bool accurate = true;        //!< accuracy <= solver.accuracy_tolerance
+  long contacts = 0;           //!< nodes pushed out of colliders at the end of the step
+  double penetration = 0;      //!< deepest penetration (m) before that push-out
 };
 
 class Elastodynamics {
@@ -50,9 +53,15 @@ class Elastodynamics {
   //! Pose of rest point X on a kinematic region's path at time t.
   static std::array<double, 3> prescribed(const KinematicConfig& k, const Vec3d& X, double t);
   const GlobalSolver& global_solver() const { return solver_; }
+  //! Total load of the [[traction]] tables active at time t on free nodes, all ranks.
+  std::array<double, 3> traction_force(double t);
 
  private:
   void external_forces(double t, std::vector<double>& f) const;
+  //! Nodal loads of each [[traction]] table on this rank's free owned nodes.
+  void build_traction_loads();
+  //! Pushes free owned nodes out of the colliders (with friction) and refreshes x's ghosts.
+  void resolve_contacts(StepStats& st);
   //! r = M(y - x)/dt^2 + f_int(x) on free owned nodes; returns the implicit-Euler objective
   //! 1/(2 dt^2) ||x - y||_M^2 + E(x), summed over all ranks.
   double residual(const std::vector<double>& y, std::vector<double>& r);
@@ -68,6 +77,12 @@ class Elastodynamics {
   std::unique_ptr<NewtonReference> newton_;  //!< set for solver.method = "newton"
   std::vector<double> x_, v_, xn_, y_, r_, delta_, fext_, fint_, x_prev_;
   std::vector<double> force_region_mass_;
+  std::vector<Collider> colliders_;
+  struct NodeLoad {
+    std::size_t node;  //!< ghosted index
+    double f[3];       //!< N
+  };
+  std::vector<std::vector<NodeLoad>> traction_loads_;  //!< per [[traction]], in node order
 };
 
 }  // namespace gen4d::elastogen
