@@ -6,6 +6,9 @@
 #include <openvdb/version.h>
 #include <petscversion.h>
 
+#include <unistd.h>
+
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -21,6 +24,7 @@
 #include "io/Checkpoint.hpp"
 #include "io/FrameReader.hpp"
 #include "io/PngPreview.hpp"
+#include "io/SurfaceIO.hpp"
 
 namespace gen4d::cli {
 namespace fs = std::filesystem;
@@ -121,8 +125,10 @@ int cmd_info() {
   return 0;
 }
 
+//! Frame numbers of --frames; "all" gives every frame (an empty list).
 std::vector<int> parse_frame_list(const std::string& s) {
   std::vector<int> out;
+  if (s == "all") return out;
   std::stringstream ss(s);
   std::string item;
   while (std::getline(ss, item, ',')) {
@@ -131,10 +137,78 @@ std::vector<int> parse_frame_list(const std::string& s) {
       out.push_back(std::stoi(item, &used));
       if (used != item.size()) throw std::invalid_argument(item);
     } catch (const std::exception&) {
-      throw InputError("--frames: '" + item + "' is not a frame number (use e.g. 0,10,-1)");
+      throw InputError("--frames: '" + item + "' is not a frame number (use e.g. 0,10,-1 or all)");
     }
   }
   return out;
+}
+
+//! Positions in a sequence of n frames (negative counts from the end; empty list = all).
+std::vector<int> choose_frames(const std::vector<int>& frames, int n, const std::string& what) {
+  std::vector<int> chosen;
+  if (frames.empty())
+    for (int i = 0; i < n; ++i) chosen.push_back(i);
+  for (int f : frames) {
+    const int idx = f < 0 ? n + f : f;
+    if (idx < 0 || idx >= n)
+      throw InputError(what + ": --frames " + std::to_string(f) + " is out of range; it holds " +
+                       std::to_string(n) + " frame(s)");
+    chosen.push_back(idx);
+  }
+  return chosen;
+}
+
+//! The ffmpeg executable on PATH, or "".
+std::string find_ffmpeg() {
+  const char* path = std::getenv("PATH");
+  std::stringstream dirs(path ? path : "");
+  std::string dir;
+  while (std::getline(dirs, dir, ':')) {
+    if (dir.empty()) continue;
+    const fs::path candidate = fs::path(dir) / "ffmpeg";
+    if (::access(candidate.c_str(), X_OK) == 0) return candidate.string();
+  }
+  return "";
+}
+
+std::string shell_quoted(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+//! Assembles the PNGs into out_dir/preview.mp4 with ffmpeg when it is on PATH; a note otherwise.
+void assemble_mp4(const std::vector<std::string>& pngs, const std::string& out_dir, double fps) {
+  const std::string ffmpeg = find_ffmpeg();
+  if (ffmpeg.empty()) {
+    log::info("--mp4: ffmpeg is not on PATH; skipped the video (the PNG files are written)");
+    return;
+  }
+  if (pngs.empty()) return;
+  const fs::path list = fs::path(out_dir) / ".preview-frames.txt";
+  {
+    std::ofstream out(list);
+    for (const auto& p : pngs)
+      out << "file " << shell_quoted(fs::absolute(p).string()) << "\nduration " << 1.0 / fps
+          << "\n";
+    if (!out) throw RuntimeError(list.string() + ": cannot write the frame list for ffmpeg");
+  }
+  const fs::path mp4 = fs::path(out_dir) / "preview.mp4";
+  const fs::path temp = fs::path(out_dir) / ".preview.mp4.tmp";
+  const std::string cmd =
+      shell_quoted(ffmpeg) + " -hide_banner -loglevel error -y -f concat -safe 0 -i " +
+      shell_quoted(list.string()) + " -vf 'scale=trunc(iw/2)*2:trunc(ih/2)*2,format=yuv420p' -r " +
+      std::to_string(fps) + " -f mp4 " + shell_quoted(temp.string());
+  const int rc = std::system(cmd.c_str());
+  std::error_code ec;
+  fs::remove(list, ec);
+  if (rc != 0) {
+    fs::remove(temp, ec);
+    throw RuntimeError("--mp4: ffmpeg failed (exit status " + std::to_string(rc) + ")");
+  }
+  fs::rename(temp, mp4, ec);
+  if (ec) throw RuntimeError(mp4.string() + ": cannot rename the video: " + ec.message());
+  log::info("wrote {}", mp4.string());
 }
 
 }  // namespace
@@ -166,40 +240,65 @@ int dispatch(int argc, char** argv) {
   auto* info =
       app.add_subcommand("info", "Version, git revision, build options, dependencies, ranks, GPUs");
 
-  std::string pv_file, pv_out = "preview", pv_frames = "0,-1";
+  std::string pv_file, pv_out = "preview", pv_frames = "0,-1", pv_mode = "auto";
   int pv_w = 960, pv_h = 720;
-  auto* preview = app.add_subcommand("preview", "Render frames of a frames.h5 to PNG images");
-  preview->add_option("frames_file", pv_file, "frames.h5 written by gen4d run")
+  double pv_fps = 25;
+  bool pv_no_ground = false, pv_mp4 = false;
+  auto* preview = app.add_subcommand(
+      "preview",
+      "Render frames of a run (voxel surface from frames.h5, or its surface sequence) "
+      "to PNG images");
+  preview->add_option("run", pv_file, "frames.h5 written by gen4d run, or the run's directory")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->check(CLI::ExistingPath);
   preview->add_option("--out,-o", pv_out, "Directory for the PNG files");
-  preview->add_option("--frames", pv_frames,
-                      "Comma-separated frame numbers; negative counts from the end");
+  auto* pv_frames_opt = preview->add_option(
+      "--frames", pv_frames, "Comma-separated frame numbers, negative from the end, or all");
+  preview
+      ->add_option("--mode", pv_mode,
+                   "surface: the run's surface/ sequence (mesh or voxel boundary); voxels: "
+                   "the voxel boundary from frames.h5; auto: surface when the run has one")
+      ->check(CLI::IsMember({"auto", "surface", "voxels"}));
   preview->add_option("--width", pv_w, "Image width in pixels")->check(CLI::Range(16, 8192));
   preview->add_option("--height", pv_h, "Image height in pixels")->check(CLI::Range(16, 8192));
+  preview->add_flag("--no-ground", pv_no_ground, "Surface mode: no ground grid");
+  preview->add_flag("--mp4", pv_mp4,
+                    "Also assemble the images into preview.mp4 if ffmpeg is on PATH (all frames "
+                    "unless --frames is given)");
+  preview->add_option("--fps", pv_fps, "Frame rate of the --mp4 video")->check(CLI::Range(1, 240));
 
   app.parse(argc, argv);
   if (*run) return cmd_run(ra);
   if (*restart) return cmd_restart(ckpt, rs_out, rs_sets);
   if (*info) return cmd_info();
   if (*preview) {
-    const auto frames = parse_frame_list(pv_frames);
+    const bool all = pv_mp4 && pv_frames_opt->count() == 0;
+    const auto frames = parse_frame_list(all ? "all" : pv_frames);
     if (rank_of(MPI_COMM_WORLD) == 0) {
-      const io::FrameReader reader(pv_file);
-      const int n = static_cast<int>(reader.frames().size());
-      std::vector<int> chosen;
-      for (int f : frames) {
-        const int idx = f < 0 ? n + f : f;
-        if (idx < 0 || idx >= n)
-          throw InputError(pv_file + ": --frames " + std::to_string(f) +
-                           " is out of range; the file holds " + std::to_string(n) + " frame(s)");
-        chosen.push_back(idx);
-      }
+      const bool is_dir = fs::is_directory(pv_file);
+      const fs::path run_dir = is_dir ? fs::path(pv_file) : fs::path(pv_file).parent_path();
+      const std::string frames_file = is_dir ? (run_dir / "frames.h5").string() : pv_file;
+      const std::string surface_dir = (run_dir / io::kSurfaceDir).string();
+      const auto sequence = io::list_surface_sequence(surface_dir);
+      const bool surface = pv_mode == "surface" || (pv_mode == "auto" && !sequence.empty());
+      if (surface && sequence.empty())
+        throw InputError(surface_dir +
+                         ": no surface_NNNNNN.ply or .obj files; run with output.surface = "
+                         "\"ply\" or \"obj\"");
       std::error_code ec;
       fs::create_directories(pv_out, ec);
       if (ec) throw RuntimeError("--out " + pv_out + ": cannot create directory: " + ec.message());
-      const auto written = io::render_frames(reader, chosen, pv_out, pv_w, pv_h);
+      std::vector<std::string> written;
+      if (surface) {
+        const auto chosen = choose_frames(frames, static_cast<int>(sequence.size()), surface_dir);
+        written = io::render_surface_frames(sequence, chosen, pv_out, pv_w, pv_h, !pv_no_ground);
+      } else {
+        const io::FrameReader reader(frames_file);
+        const auto chosen = choose_frames(frames, reader.frame_count(), frames_file);
+        written = io::render_frames(reader, chosen, pv_out, pv_w, pv_h);
+      }
       for (const auto& f : written) log::info("wrote {}", f);
+      if (pv_mp4) assemble_mp4(written, pv_out, pv_fps);
     }
     return 0;
   }

@@ -13,4 +13,4 @@ for ((i = 0; i < ${#args[@]}; i++)); do
 done
 mpirun -np 2 "$GEN4D_BUILD/drivers/gen4d" run --out "$out" --overwrite "$@"
 "$GEN4D_BUILD/drivers/gen4d" preview "$out/frames.h5" --out "$out/png" --frames 0,25,50,-1
-echo "Open $out/frames.xdmf in ParaView; PNG previews are in $out/png"
+echo "Open $out/frames.xdmf in ParaView; surface sequence (PLY) in $out/surface; PNG previews in $out/png"

@@ -106,6 +106,9 @@ struct OutputConfig {
   int checkpoint_every = 0;   //!< steps; 0 = only at the end and on signals
   int checkpoint_keep = 2;
   double progress_interval = 2.0;  //!< wall seconds between progress lines
+  //! Per-frame surface files, "none" | "ply" | "obj", of "auto" | "mesh" | "voxels".
+  std::string surface = "none";
+  std::string surface_source = "auto";
 };
 
 struct Config {

@@ -333,6 +333,18 @@ void read_output(const Section& s, OutputConfig& o) {
   require_at_least(s, "checkpoint_keep", o.checkpoint_keep, 1);
   o.progress_interval = s.number("progress_interval", o.progress_interval);
   require_positive(s, "progress_interval", o.progress_interval);
+  o.surface = s.choice("surface", o.surface, {"none", "ply", "obj"});
+  o.surface_source = s.choice("surface_source", o.surface_source, {"auto", "mesh", "voxels"});
+}
+
+//! A mesh surface needs mesh geometry: every [[geometry]] part must be a mesh.
+void check_surface_source(const Section& s, const Config& c) {
+  if (c.output.surface_source != "mesh") return;
+  for (std::size_t i = 0; i < c.geometry.size(); ++i)
+    s.check(c.geometry[i].type == "mesh", "surface_source",
+            fmt::format("\"mesh\" needs every [[geometry]] part to be a mesh, but geometry.{} is a "
+                        "{} (use \"auto\" or \"voxels\")",
+                        i, c.geometry[i].type));
 }
 
 // The final deck text. Structure and numbers are written here rather than by toml++'s
@@ -420,7 +432,9 @@ Config parse_deck(const std::string& text, const std::string& source_name,
     c.colliders.push_back(read_collider(s));
   for (const Section& s : array_sections(root, "traction", loc))
     c.tractions.push_back(read_traction(s));
-  read_output(table_section(root, "output", loc), c.output);
+  const Section output = table_section(root, "output", loc);
+  read_output(output, c.output);
+  check_surface_source(output, c);
 
   c.text = write_deck_text(root);
   c.source = source_name;

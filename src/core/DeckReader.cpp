@@ -96,7 +96,9 @@ const std::vector<TableSpec>& schema() {
         {"frame_interval", K::Number},
         {"checkpoint_every", K::Integer},
         {"checkpoint_keep", K::Integer},
-        {"progress_interval", K::Number}}},
+        {"progress_interval", K::Number},
+        {"surface", K::String},
+        {"surface_source", K::String}}},
   };
   return tables;
 }

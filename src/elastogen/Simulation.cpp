@@ -88,6 +88,21 @@ Simulation::Simulation(MPI_Comm comm, const Config& cfg) : comm_(comm), cfg_(cfg
       build::version, cfg_.name, size_, layout_.nodes[0], layout_.nodes[1], layout_.nodes[2],
       sys_->global_solid_cells(), sys_->global_free_nodes(), 3 * sys_->global_free_nodes(),
       cfg_.voxel_size, dyn_->stiffness(), dyn_->global_solver().subspace_modes());
+  if (cfg_.output.surface != "none") {
+    PhaseTimers::Scope t(timers_, "setup");
+    io::parse_surface_format(cfg_.output.surface, surface_format_);
+    surface_ = std::make_unique<SurfaceEmbedding>(*sys_, *shape, choose_surface_source(cfg_));
+    if (rank_ == 0) surface_mesh_.triangles = surface_->triangles();
+    const bool mesh = surface_->source() == SurfaceSource::Mesh;
+    log::info("surface: {} with {} vertices, {} triangles, written as {}{}",
+              mesh ? "input mesh" : "voxel boundary", surface_->vertex_count(),
+              surface_->triangle_count(), cfg_.output.surface,
+              mesh && surface_->extrapolated_vertices() > 0
+                  ? fmt::format("; {} vertices lie outside the solid voxels and follow the "
+                                "nearest one (at most {:.2f} voxel away)",
+                                surface_->extrapolated_vertices(), surface_->max_extrapolation())
+                  : std::string());
+  }
 }
 
 Simulation::~Simulation() = default;
@@ -202,8 +217,61 @@ void Simulation::write_frame(io::FrameWriter& writer) {
   const auto v = owned_velocities();
   writer.write_frame(time_, static_cast<int>(step_), to_io(grid_->owned_nodes()), x.data(),
                      v.data());
+  if (surface_) write_surface(writer.frames().back().index);
   ++frame_index_;
   next_frame_time_ = time_ + cfg_.output.frame_interval;
+}
+
+void Simulation::open_surface(const std::string& out_dir, const io::FrameWriter& writer) {
+  if (!surface_) return;
+  PhaseTimers::Scope t(timers_, "io");
+  surface_dir_ = (std::filesystem::path(out_dir) / io::kSurfaceDir).string();
+  // Frames later than the last one kept were dropped from frames.h5 (or all, for a fresh run).
+  const long keep = writer.frames().empty() ? -1 : writer.frames().back().index;
+  std::string error;
+  if (rank_ == 0) {
+    try {
+      std::error_code ec;
+      std::filesystem::create_directories(surface_dir_, ec);
+      if (ec) throw RuntimeError(surface_dir_ + ": cannot create directory: " + ec.message());
+      io::prune_surface_sequence(surface_dir_, keep);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
+  int failed = error.empty() ? 0 : 1;
+  MPI_Bcast(&failed, 1, MPI_INT, 0, comm_);
+  if (failed) throw RuntimeError(rank_ == 0 ? error : surface_dir_ + ": cannot prepare");
+}
+
+void Simulation::write_surface(long index) {
+  const double start = MPI_Wtime();
+  dyn_->sync_ghosts();  // cheap insurance: corners of owned voxels must be current
+  std::vector<double> xyz = surface_->gather(dyn_->x().data());
+  const double gathered = MPI_Wtime();
+  surface_gather_seconds_ += gathered - start;
+  std::string error;
+  if (rank_ == 0) {
+    surface_mesh_.xyz = std::move(xyz);
+    surface_mesh_.comments = {fmt::format(
+        "gen4d surface of '{}': frame {} step {} time {} s, {}", cfg_.name, index, step_, time_,
+        surface_->source() == SurfaceSource::Mesh ? "input mesh" : "voxel boundary")};
+    const std::string path =
+        (std::filesystem::path(surface_dir_) / io::surface_file_name(index, surface_format_))
+            .string();
+    try {
+      io::write_surface(path, surface_mesh_, surface_format_);
+      std::error_code ec;
+      surface_bytes_ += static_cast<double>(std::filesystem::file_size(path, ec));
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
+  int failed = error.empty() ? 0 : 1;
+  MPI_Bcast(&failed, 1, MPI_INT, 0, comm_);
+  if (failed) throw RuntimeError(rank_ == 0 ? error : surface_dir_ + ": surface write failed");
+  ++surface_files_;
+  surface_write_seconds_ += MPI_Wtime() - gathered;
 }
 
 int Simulation::pending_signal() {
@@ -217,6 +285,7 @@ int Simulation::pending_signal() {
 RunResult Simulation::run(const std::string& out_dir, bool append) {
   RunResult res;
   auto writer = open_frames(out_dir, append);
+  open_surface(out_dir, *writer);
   const double dt = cfg_.dt;
   const long total_steps = static_cast<long>(std::ceil(cfg_.end_time / dt - 1e-9));
   if (!append && step_ == 0) write_frame(*writer);
@@ -253,6 +322,13 @@ RunResult Simulation::run(const std::string& out_dir, bool append) {
   if (progress.inaccurate_steps() > 0)
     log::info("warning: {} step(s) ended above solver.accuracy_tolerance (worst {:.2e})",
               progress.inaccurate_steps(), progress.worst_residual());
+  if (surface_ && surface_files_ > 0)
+    log::info(
+        "surface: {} file(s) in {}, {:.2f} MB; per frame {:.2f} ms evaluate + gather, {:.2f} ms "
+        "write",
+        surface_files_, surface_dir_, surface_bytes_ / 1e6,
+        1e3 * surface_gather_seconds_ / static_cast<double>(surface_files_),
+        1e3 * surface_write_seconds_ / static_cast<double>(surface_files_));
   report_timers(res.wall_seconds, res.steps);
   return res;
 }

@@ -10,8 +10,10 @@
 #include "core/Config.hpp"
 #include "core/Timers.hpp"
 #include "elastogen/Elastodynamics.hpp"
+#include "elastogen/SurfaceEmbedding.hpp"
 #include "geometry/Shape.hpp"
 #include "io/FrameWriter.hpp"
+#include "io/SurfaceIO.hpp"
 #include "parallel/Grid.hpp"
 
 namespace gen4d::elastogen {
@@ -48,6 +50,8 @@ class Simulation {
   long step_index() const { return step_; }
   double time() const { return time_; }
   PhaseTimers& timers() { return timers_; }
+  //! The surface written per frame (output.surface != "none"), else null.
+  const SurfaceEmbedding* surface() const { return surface_.get(); }
   //! Owned-node positions / velocities packed x-fastest (3 per node), for output and tests.
   std::vector<double> owned_positions() const;
   std::vector<double> owned_velocities() const;
@@ -63,6 +67,11 @@ class Simulation {
   //! Creates out_dir (rank 0, failure shared) and the frame file, or reopens it to append.
   std::unique_ptr<io::FrameWriter> open_frames(const std::string& out_dir, bool append);
   void write_frame(io::FrameWriter& writer);
+  //! Creates out_dir/surface and removes sequence files later than the frames kept (all of
+  //! them for a fresh run) so the sequence matches frames.h5. Collective.
+  void open_surface(const std::string& out_dir, const io::FrameWriter& writer);
+  //! Writes the surface of frame `index` (rank 0 writes; every rank evaluates). Collective.
+  void write_surface(long index);
   //! The signal any rank received since the last call (0 if none); collective.
   int pending_signal();
   void report_timers(double wall, long steps) const;
@@ -79,6 +88,12 @@ class Simulation {
   double time_ = 0;
   long frame_index_ = 0;
   double next_frame_time_ = 0;
+  std::unique_ptr<SurfaceEmbedding> surface_;
+  io::SurfaceFormat surface_format_ = io::SurfaceFormat::Ply;
+  io::SurfaceMesh surface_mesh_;  // rank 0: triangles fixed, positions per frame
+  std::string surface_dir_;
+  long surface_files_ = 0;
+  double surface_gather_seconds_ = 0, surface_write_seconds_ = 0, surface_bytes_ = 0;
 };
 
 }  // namespace gen4d::elastogen

@@ -84,6 +84,7 @@ class Union : public Shape {
   bool inside(const Eigen::Vector3d& p) const override;
   Aabb bounds() const override { return bounds_; }
   std::size_t size() const { return parts_.size(); }
+  const Shape& part(std::size_t i) const { return *parts_[i]; }
 
  private:
   std::vector<std::unique_ptr<Shape>> parts_;

@@ -67,22 +67,9 @@ struct Camera {
   double near = 0;
 };
 
-//! Looks at the bounding sphere of the rest-state surface from 30 degrees up, a quarter turn
-//! off the axes, with z up (gravity's axis).
-Camera frame_camera(const std::vector<double>& rest, const std::vector<Quad>& faces, int width,
-                    int height) {
-  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
-  auto include = [&](std::size_t n) {
-    const Vec3 p(rest[3 * n], rest[3 * n + 1], rest[3 * n + 2]);
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  };
-  if (faces.empty()) {
-    for (std::size_t n = 0; n < rest.size() / 3; ++n) include(n);
-  }
-  for (const Quad& quad : faces) {
-    for (std::size_t n : quad) include(n);
-  }
+//! Looks at the bounding sphere of the box [lo, hi] from 30 degrees up, a quarter turn off
+//! the axes, with z up (gravity's axis).
+Camera box_camera(const Vec3& lo, const Vec3& hi, int width, int height) {
   const Vec3 center = 0.5 * (lo + hi);
   const double radius = std::max(0.5 * (hi - lo).norm(), 1e-12);
   const double half_fov = 0.5 * 35.0 * M_PI / 180.0;
@@ -97,6 +84,24 @@ Camera frame_camera(const std::vector<double>& rest, const std::vector<Quad>& fa
   cam.focal = 0.5 * std::min(width, height) / std::tan(half_fov);
   cam.near = 1e-3 * radius;
   return cam;
+}
+
+//! The camera of box_camera for the rest-state voxel surface.
+Camera frame_camera(const std::vector<double>& rest, const std::vector<Quad>& faces, int width,
+                    int height) {
+  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+  auto include = [&](std::size_t n) {
+    const Vec3 p(rest[3 * n], rest[3 * n + 1], rest[3 * n + 2]);
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  };
+  if (faces.empty()) {
+    for (std::size_t n = 0; n < rest.size() / 3; ++n) include(n);
+  }
+  for (const Quad& quad : faces) {
+    for (std::size_t n : quad) include(n);
+  }
+  return box_camera(lo, hi, width, height);
 }
 
 struct Image {
@@ -147,34 +152,84 @@ void fill_triangle(Image& image, const std::array<Vec3, 3>& s, const Vec3& color
   }
 }
 
-Image render(const std::vector<double>& x, const std::vector<Quad>& faces, const Camera& cam,
-             int width, int height) {
-  Image image = background(width, height);
+using Triangle = std::array<std::size_t, 3>;
+
+//! Draws triangles of positions x with Lambert shading (both sides lit) over `image`.
+void draw_triangles(Image& image, const std::vector<double>& x, const std::vector<Triangle>& tris,
+                    const Camera& cam) {
+  const int width = image.width, height = image.height;
   const Vec3 light = (-0.4 * cam.right + 0.8 * cam.up - 0.45 * cam.forward).normalized();
   const Vec3 material(0.86, 0.56, 0.34);
   auto node = [&](std::size_t n) { return Vec3(x[3 * n], x[3 * n + 1], x[3 * n + 2]); };
+  for (const Triangle& tri : tris) {
+    std::array<Vec3, 3> world{node(tri[0]), node(tri[1]), node(tri[2])}, screen;
+    bool visible = true;
+    for (int c = 0; c < 3; ++c) {
+      const Vec3 q = world[c] - cam.eye;
+      const double depth = q.dot(cam.forward);
+      if (depth < cam.near) visible = false;
+      screen[c] = Vec3(0.5 * width + cam.focal * q.dot(cam.right) / depth,
+                       0.5 * height - cam.focal * q.dot(cam.up) / depth, 1.0 / depth);
+    }
+    Vec3 normal = (world[1] - world[0]).cross(world[2] - world[0]);
+    if (!visible || normal.norm() == 0) continue;
+    normal.normalize();
+    // Light whichever side faces the camera: inverted elements must not turn black.
+    if (normal.dot(cam.eye - world[0]) < 0) normal = -normal;
+    const double lambert = std::max(0.0, normal.dot(light));
+    fill_triangle(image, screen, material * (0.3 + 0.7 * lambert));
+  }
+}
+
+Image render(const std::vector<double>& x, const std::vector<Quad>& faces, const Camera& cam,
+             int width, int height) {
+  Image image = background(width, height);
+  std::vector<Triangle> tris;
+  tris.reserve(2 * faces.size());
   for (const Quad& quad : faces) {
-    for (const auto& tri : {std::array<std::size_t, 3>{quad[0], quad[1], quad[2]},
-                            std::array<std::size_t, 3>{quad[0], quad[2], quad[3]}}) {
-      std::array<Vec3, 3> world{node(tri[0]), node(tri[1]), node(tri[2])}, screen;
-      bool visible = true;
-      for (int c = 0; c < 3; ++c) {
-        const Vec3 q = world[c] - cam.eye;
-        const double depth = q.dot(cam.forward);
-        if (depth < cam.near) visible = false;
-        screen[c] = Vec3(0.5 * width + cam.focal * q.dot(cam.right) / depth,
-                         0.5 * height - cam.focal * q.dot(cam.up) / depth, 1.0 / depth);
-      }
-      Vec3 normal = (world[1] - world[0]).cross(world[2] - world[0]);
-      if (!visible || normal.norm() == 0) continue;
-      normal.normalize();
-      // Light whichever side faces the camera: inverted elements must not turn black.
-      if (normal.dot(cam.eye - world[0]) < 0) normal = -normal;
-      const double lambert = std::max(0.0, normal.dot(light));
-      fill_triangle(image, screen, material * (0.3 + 0.7 * lambert));
+    tris.push_back({quad[0], quad[1], quad[2]});
+    tris.push_back({quad[0], quad[2], quad[3]});
+  }
+  draw_triangles(image, x, tris, cam);
+  return image;
+}
+
+//! 1, 2 or 5 times a power of ten, about a tenth of `extent`.
+double grid_spacing(double extent) {
+  const double raw = std::max(extent, 1e-12) / 10.0;
+  const double decade = std::pow(10.0, std::floor(std::log10(raw)));
+  for (double m : {1.0, 2.0, 5.0})
+    if (m * decade >= raw) return m * decade;
+  return 10.0 * decade;
+}
+
+//! A ground plane at height z with grid lines, written into colour and depth so that the
+//! object occludes it; it fades out away from (cx, cy).
+void draw_ground(Image& image, const Camera& cam, double z, double cx, double cy, double extent) {
+  const double spacing = grid_spacing(extent), reach = 1.6 * extent;
+  const Vec3 tile(0.66, 0.64, 0.60), line(0.38, 0.37, 0.35);
+  for (int y = 0; y < image.height; ++y) {
+    for (int x = 0; x < image.width; ++x) {
+      const Vec3 ray = cam.focal * cam.forward + (x + 0.5 - 0.5 * image.width) * cam.right -
+                       (y + 0.5 - 0.5 * image.height) * cam.up;
+      if (ray.z() >= 0) continue;
+      const double t = (z - cam.eye.z()) / ray.z();
+      if (t <= 0) continue;
+      const Vec3 hit = cam.eye + t * ray;
+      const double r = std::hypot(hit.x() - cx, hit.y() - cy);
+      if (r > reach) continue;
+      const double depth = (hit - cam.eye).dot(cam.forward);
+      const std::size_t pixel = std::size_t(y) * image.width + x;
+      auto near_line = [&](double v) {
+        const double f = v / spacing - std::floor(v / spacing);
+        return std::min(f, 1.0 - f) < 0.03;
+      };
+      const Vec3 c = near_line(hit.x()) || near_line(hit.y()) ? line : tile;
+      const double fade = std::clamp((reach - r) / (0.5 * extent), 0.0, 1.0);
+      image.color[pixel] = fade * c + (1.0 - fade) * image.color[pixel];
+      image.inverse_depth[pixel] = 1.0 / depth;
     }
   }
-  return image;
 }
 
 void png_fail(png_structp png, png_const_charp message) {
@@ -236,11 +291,15 @@ struct Scene {
   Camera camera;
 };
 
-Scene make_scene(const FrameReader& reader, int width, int height) {
+void check_size(int width, int height) {
   if (width <= 0 || height <= 0 || width > 16384 || height > 16384) {
     throw InputError("preview size " + std::to_string(width) + "x" + std::to_string(height) +
                      " must be between 1 and 16384 pixels per side");
   }
+}
+
+Scene make_scene(const FrameReader& reader, int width, int height) {
+  check_size(width, height);
   Scene scene;
   scene.faces = boundary_faces(reader.node_dims(), reader.read_occupancy());
   scene.camera = frame_camera(reader.read_position(0), scene.faces, width, height);
@@ -266,6 +325,44 @@ std::vector<std::string> render_frames(const FrameReader& reader, const std::vec
     paths.push_back((std::filesystem::path(out_dir) / name).string());
     write_png(paths.back(),
               render(reader.read_position(frame), scene.faces, scene.camera, width, height));
+  }
+  return paths;
+}
+
+std::vector<std::string> render_surface_frames(const std::vector<SurfaceFrameFile>& sequence,
+                                               const std::vector<int>& chosen,
+                                               const std::string& out_dir, int width, int height,
+                                               bool ground) {
+  check_size(width, height);
+  // One camera for the whole sequence: the bounding box of every frame.
+  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+  for (const SurfaceFrameFile& f : sequence) {
+    const SurfaceMesh mesh = read_surface(f.path);
+    for (std::size_t v = 0; v < mesh.vertex_count(); ++v) {
+      const Vec3 p(mesh.xyz[3 * v], mesh.xyz[3 * v + 1], mesh.xyz[3 * v + 2]);
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+  }
+  if ((lo.array() > hi.array()).any()) lo = hi = Vec3::Zero();
+  const Camera camera = box_camera(lo, hi, width, height);
+  const double extent = std::max({hi.x() - lo.x(), hi.y() - lo.y(), hi.z() - lo.z(), 1e-12});
+  std::vector<std::string> paths;
+  for (int position : chosen) {
+    const SurfaceFrameFile& f = sequence.at(static_cast<std::size_t>(position));
+    const SurfaceMesh mesh = read_surface(f.path);
+    std::vector<Triangle> tris;
+    tris.reserve(mesh.triangles.size());
+    for (const auto& t : mesh.triangles)
+      tris.push_back({std::size_t(t[0]), std::size_t(t[1]), std::size_t(t[2])});
+    Image image = background(width, height);
+    if (ground)
+      draw_ground(image, camera, lo.z(), 0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()), extent);
+    draw_triangles(image, mesh.xyz, tris, camera);
+    char name[40];
+    std::snprintf(name, sizeof name, "surface_%06ld.png", f.index);
+    paths.push_back((std::filesystem::path(out_dir) / name).string());
+    write_png(paths.back(), image);
   }
   return paths;
 }

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "io/FrameReader.hpp"
+#include "io/SurfaceIO.hpp"
 
 namespace gen4d::io {
 
@@ -19,5 +20,15 @@ void render_frame_png(const FrameReader& reader, int frame, const std::string& p
 //! Renders each of `frames` to out_dir/frame_<frame, 6 digits>.png; returns the paths.
 std::vector<std::string> render_frames(const FrameReader& reader, const std::vector<int>& frames,
                                        const std::string& out_dir, int width, int height);
+
+//! Renders the surface files at positions `chosen` of `sequence` (as listed by
+//! list_surface_sequence) as shaded triangles to out_dir/surface_<index, 6 digits>.png, with
+//! a z-buffer and Lambert shading. The camera frames the bounding box of every file of the
+//! sequence, so the images of a sequence are comparable; `ground` adds a grid on the plane
+//! under the lowest point. Bad files are InputErrors naming the file; returns the paths.
+std::vector<std::string> render_surface_frames(const std::vector<SurfaceFrameFile>& sequence,
+                                               const std::vector<int>& chosen,
+                                               const std::string& out_dir, int width, int height,
+                                               bool ground);
 
 }  // namespace gen4d::io
