@@ -35,9 +35,8 @@ std::string scratch_dir(const std::string& name) {
   return d;
 }
 
-// A 5 x 4 x 3 voxel block, clamped at x = 0 and pushed at its far end. No subspace start:
-// on this grid the subspace projection's reductions round differently at 2 ranks (last-bit
-// differences of node positions), and these tests compare surfaces bit for bit.
+// A 5 x 4 x 3 voxel block, clamped at x = 0 and pushed at its far end; the tests compare
+// surfaces bit for bit across rank counts.
 const char* kBlockDeck = R"(
 [simulation]
 dt = 0.01
@@ -54,7 +53,6 @@ poisson_ratio = 0.3
 density = 1000.0
 [solver]
 max_sweeps = 40
-subspace_modes = 0
 [[fixed]]
 lo = [-1.0, -1.0, -1.0]
 hi = [0.001, 1.0, 1.0]
