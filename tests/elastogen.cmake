@@ -26,3 +26,14 @@ if(TARGET bench_elastogen)
 endif()
 gen4d_test(frequency SOURCES test_frequency.cpp LIBS gen4d_elastogen RANKS 1)
 gen4d_test(contact SOURCES test_contact.cpp LIBS gen4d_elastogen RANKS 1 2 4)
+
+# Small twin of the convergence validation driver (full run: see drivers/validation).
+if(TARGET validate_convergence)
+  foreach(np 1 2)
+    add_test(NAME validate_convergence_quick_np${np}
+             COMMAND ${MPIEXEC_EXECUTABLE} ${MPIEXEC_NUMPROC_FLAG} ${np} --oversubscribe
+                     $<TARGET_FILE:validate_convergence> --steps 8 --voxel 0.05 --plain-cap 400)
+    set_tests_properties(validate_convergence_quick_np${np} PROPERTIES
+                         ENVIRONMENT "${GEN4D_TEST_ENV}" PROCESSORS ${np} TIMEOUT 600)
+  endforeach()
+endif()

@@ -65,6 +65,7 @@ void expect_same(const Config& a, const Config& b) {
   const SolverConfig &s = a.solver, &t = b.solver;
   EXPECT_EQ(s.relaxation, t.relaxation);
   EXPECT_EQ(s.jacobi_omega, t.jacobi_omega);
+  EXPECT_EQ(s.chebyshev_ratio, t.chebyshev_ratio);
   EXPECT_EQ(s.max_sweeps, t.max_sweeps);
   EXPECT_EQ(s.inner_tolerance, t.inner_tolerance);
   EXPECT_EQ(s.subspace_modes, t.subspace_modes);
@@ -146,6 +147,7 @@ TEST(Deck, FullDeckValues) {
   EXPECT_EQ(c.material.density, 1000.0);
   EXPECT_EQ(c.solver.relaxation, "cg");
   EXPECT_EQ(c.solver.jacobi_omega, 0.8);
+  EXPECT_EQ(c.solver.chebyshev_ratio, 0.1);
   EXPECT_EQ(c.solver.max_sweeps, 200);
   EXPECT_EQ(c.solver.inner_tolerance, 1e-7);
   EXPECT_EQ(c.solver.subspace_modes, 24);

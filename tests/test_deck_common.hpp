@@ -64,6 +64,7 @@ density = 1000
 [solver]
 relaxation = "cg"
 jacobi_omega = 0.8
+chebyshev_ratio = 0.1
 max_sweeps = 200
 inner_tolerance = 1e-7
 subspace_modes = 24

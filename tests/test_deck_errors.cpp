@@ -179,7 +179,10 @@ TEST(DeckErrors, OtherRanges) {
   auto f = edit("end = 0.3", "end = 0.1");
   expect_error("force_end.toml", f.text, f.line, "force.0.end", "must be > start");
   auto g = edit("relaxation = \"cg\"", "relaxation = \"gauss\"");
-  expect_error("relaxation.toml", g.text, g.line, "solver.relaxation", "must be one of jacobi, cg");
+  expect_error("relaxation.toml", g.text, g.line, "solver.relaxation",
+               "must be one of jacobi, chebyshev, cg");
+  auto r = edit("chebyshev_ratio = 0.1", "chebyshev_ratio = 1.0");
+  expect_error("ratio.toml", r.text, r.line, "solver.chebyshev_ratio", "must be in [0, 1)");
   auto h = edit("checkpoint_keep = 3", "checkpoint_keep = 0");
   expect_error("keep.toml", h.text, h.line, "output.checkpoint_keep", "must be >= 1");
 }

@@ -47,8 +47,9 @@ struct MaterialConfig {
 
 struct SolverConfig {
   std::string method = "elastogen";   //!< "elastogen" | "newton" (reference solver)
-  std::string relaxation = "jacobi";  //!< "jacobi" | "cg"
+  std::string relaxation = "jacobi";  //!< "jacobi" | "chebyshev" | "cg"
   double jacobi_omega = 0.67;         //!< damping of Jacobi sweeps, (0, 1]
+  double chebyshev_ratio = 0.05;      //!< lambda_min / lambda_max of the Chebyshev interval
   int max_sweeps = 100;               //!< per outer loop
   double inner_tolerance = 1e-3;      //!< relative residual of the global step
   int subspace_modes = 18;            //!< K low-frequency modes; 0 disables

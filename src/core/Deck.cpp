@@ -217,14 +217,17 @@ void read_material(const Section& s, MaterialConfig& m) {
 
 void read_solver(const Section& s, SolverConfig& v) {
   v.method = s.choice("method", v.method, {"elastogen", "newton"});
-  v.relaxation = s.choice("relaxation", v.relaxation, {"jacobi", "cg"});
+  v.relaxation = s.choice("relaxation", v.relaxation, {"jacobi", "chebyshev", "cg"});
   v.jacobi_omega = s.number("jacobi_omega", v.jacobi_omega);
   s.check(v.jacobi_omega > 0 && v.jacobi_omega <= 1, "jacobi_omega",
           fmt::format("must be in (0, 1], got {}", v.jacobi_omega));
+  v.chebyshev_ratio = s.number("chebyshev_ratio", v.chebyshev_ratio);
+  s.check(v.chebyshev_ratio >= 0 && v.chebyshev_ratio < 1, "chebyshev_ratio",
+          fmt::format("must be in [0, 1), got {}", v.chebyshev_ratio));
   v.max_sweeps = s.integer("max_sweeps", v.max_sweeps);
   require_at_least(s, "max_sweeps", v.max_sweeps, 1);
   v.inner_tolerance = s.number("inner_tolerance", v.inner_tolerance);
-  require_positive(s, "inner_tolerance", v.inner_tolerance);
+  require_at_least(s, "inner_tolerance", v.inner_tolerance, 0);
   v.subspace_modes = s.integer("subspace_modes", v.subspace_modes);
   s.check(v.subspace_modes >= 0 && v.subspace_modes <= 64, "subspace_modes",
           fmt::format("must be in [0, 64], got {}", v.subspace_modes));

@@ -49,6 +49,7 @@ const std::vector<TableSpec>& schema() {
        {{"method", K::String},
         {"relaxation", K::String},
         {"jacobi_omega", K::Number},
+        {"chebyshev_ratio", K::Number},
         {"max_sweeps", K::Integer},
         {"inner_tolerance", K::Number},
         {"subspace_modes", K::Integer},

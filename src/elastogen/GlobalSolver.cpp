@@ -2,9 +2,47 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <tuple>
 
+#include "core/Log.hpp"
+
 namespace gen4d::elastogen {
+
+namespace {
+constexpr int kLanczosSteps = 24;          //!< set-up iterations of the lambda_max estimate
+constexpr double kChebyshevSafety = 1.05;  //!< lambda_max = safety * largest Ritz value
+
+//! Rounds the terms of a sum to a fixed grid 2^e, chosen from a bound on every term and on
+//! the number of terms so that ExactSum then adds them (on every rank and in the reduction)
+//! without a single rounding: the total is the same for any order and decomposition, even
+//! when the terms cancel. ExactSum alone keeps rounding errors in its low part, which decide
+//! the last bits of a sum that cancels to ~0 (as the subspace projections of a symmetric load
+//! do) and so broke bit-identity across rank counts. The grid lies 2^-104 below the bound
+//! times the squared term count: far below the precision of double for any term that matters.
+class GridRounding {
+ public:
+  GridRounding(double max_term, long long terms) {
+    if (!(max_term > 0)) return;  // all terms zero: nothing to round
+    int l = 0;
+    while ((1LL << l) < terms) ++l;
+    // |partial sums| <= 2^(b+1+l) with b = ilogb(max_term); ExactSum's low part collects at
+    // most 2^l errors of <= 2^(b+l-52) each, exact while below 2^(e+53).
+    const int e = std::ilogb(max_term) + 2 * l - 104;
+    c_ = std::ldexp(1.5, e + 52);
+    lim_ = std::ldexp(1.0, e + 52);
+  }
+  double operator()(double v) const { return std::fabs(v) < lim_ ? (v + c_) - c_ : v; }
+
+ private:
+  double c_ = 0, lim_ = 0;
+};
+
+//! Terms of one projection summed across all ranks, with the reduction's own adds.
+long long projection_terms(const VoxelSystem& sys) {
+  return sys.global_free_nodes() + 2LL * sys.grid().size() + 1;
+}
+}  // namespace
 
 GlobalSolver::GlobalSolver(VoxelSystem& sys, const SolverConfig& cfg, double k, double dt,
                            PhaseTimers& timers)
@@ -22,6 +60,7 @@ GlobalSolver::GlobalSolver(VoxelSystem& sys, const SolverConfig& cfg, double k, 
   z_.assign(n, 0.0);
   p_.assign(n, 0.0);
   if (cfg_.subspace_modes > 0) build_subspace();
+  if (cfg_.relaxation == "chebyshev") estimate_spectrum();
 }
 
 double GlobalSolver::owned_norm2(const std::vector<double>& a) {
@@ -74,10 +113,15 @@ void GlobalSolver::build_subspace() {
           phi[3 * n] = free[n] ? mode_value(modes_[j], i, jj, k) : 0.0;
         }
     sys_.apply(k_, inv_dt2_, phi.data(), aphi.data());
+    double amax = 0;  // |phi| <= 1, so |A phi| bounds every term
+    for_owned(sys_.owned(), G, [&](std::size_t n, long, long, long) {
+      amax = std::max(amax, std::fabs(aphi[3 * n]));
+    });
+    const GridRounding grid(red_.max(amax), projection_terms(sys_));
     for_owned(sys_.owned(), G, [&](std::size_t n, long i, long jj, long k) {
       if (!free[n]) return;
       for (int m = 0; m < K; ++m)
-        local[m * K + j].add(mode_value(modes_[m], i, jj, k) * aphi[3 * n]);
+        local[m * K + j].add(grid(mode_value(modes_[m], i, jj, k) * aphi[3 * n]));
     });
   }
   Eigen::MatrixXd S(K, K);
@@ -91,18 +135,20 @@ void GlobalSolver::build_subspace() {
   subspace_pinv_ = eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
 }
 
-void GlobalSolver::subspace_start(const std::vector<double>& r, std::vector<double>& delta) {
+void GlobalSolver::subspace_start(const std::vector<double>& r, std::vector<double>& delta,
+                                  double rnorm) {
   const int K = static_cast<int>(modes_.size());
   const Box& G = sys_.ghosted();
   const auto& free = sys_.free_mask();
   std::vector<parallel::ExactSum> local(static_cast<std::size_t>(3 * K));
   {
     PhaseTimers::Scope t(timers_, "subspace");
+    const GridRounding grid(rnorm, projection_terms(sys_));  // |phi r_i| <= ||r||
     for_owned(sys_.owned(), G, [&](std::size_t n, long i, long j, long k) {
       if (!free[n]) return;
       for (int m = 0; m < K; ++m) {
         const double phi = mode_value(modes_[m], i, j, k);
-        for (int d = 0; d < 3; ++d) local[3 * m + d].add(phi * r[3 * n + d]);
+        for (int d = 0; d < 3; ++d) local[3 * m + d].add(grid(phi * r[3 * n + d]));
       }
     });
   }
@@ -131,8 +177,10 @@ InnerStats GlobalSolver::solve(const std::vector<double>& r, std::vector<double>
   const double rnorm = std::sqrt(owned_norm2(r));
   delta.assign(r.size(), 0.0);
   if (rnorm == 0.0) return {};
-  if (!modes_.empty()) subspace_start(r, delta);
-  return cfg_.relaxation == "cg" ? cg(r, delta, rnorm) : jacobi(r, delta, rnorm);
+  if (!modes_.empty()) subspace_start(r, delta, rnorm);
+  if (cfg_.relaxation == "cg") return cg(r, delta, rnorm);
+  if (cfg_.relaxation == "chebyshev") return chebyshev(r, delta, rnorm);
+  return jacobi(r, delta, rnorm);
 }
 
 InnerStats GlobalSolver::jacobi(const std::vector<double>& r, std::vector<double>& delta,
@@ -157,6 +205,149 @@ InnerStats GlobalSolver::jacobi(const std::vector<double>& r, std::vector<double
           const double rr = r[3 * n + d] - ad_[3 * n + d];
           res_[3 * n + d] = rr;
           delta[3 * n + d] += omega * rr / diag_[n];
+        }
+      });
+    }
+    st.sweeps = s;
+    if (s % check_every == 0 || s == cfg_.max_sweeps) {
+      st.relative_residual = std::sqrt(owned_norm2(res_)) / rnorm;
+      if (st.relative_residual < cfg_.inner_tolerance) break;
+    }
+  }
+  PhaseTimers::Scope t(timers_, "halo");
+  halo_.gather(delta.data());
+  return st;
+}
+
+namespace {
+//! Deterministic pseudo-random value in [-1, 1) of a global node index (splitmix64), so the
+//! Lanczos start vector is the same whatever the decomposition.
+double hashed_unit(std::uint64_t z) {
+  z += 0x9e3779b97f4a7c15ULL;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  z ^= z >> 31;
+  return static_cast<double>(z >> 11) * 0x1.0p-52 - 1.0;
+}
+}  // namespace
+
+void GlobalSolver::estimate_spectrum() {
+  // Lanczos on D^-1 A through Jacobi-preconditioned CG from a hashed random right-hand side:
+  // the CG coefficients give the Lanczos tridiagonal T (Saad, Iterative Methods, sec. 6.7.3),
+  // whose extreme eigenvalues (Ritz values) approach those of D^-1 A from inside. The operator
+  // is the same for x, y and z, so component 0 carries the iteration. All dot products use
+  // the exact reducer: T, and so the interval, is bit-identical on every rank and rank count.
+  const Box& G = sys_.ghosted();
+  const Box& O = sys_.owned();
+  const auto& free = sys_.free_mask();
+  const auto& nn = sys_.grid().global_nodes();
+  std::fill(res_.begin(), res_.end(), 0.0);
+  std::fill(z_.begin(), z_.end(), 0.0);
+  std::fill(p_.begin(), p_.end(), 0.0);
+  parallel::ExactSum rz_l;
+  for_owned(O, G, [&](std::size_t n, long i, long j, long k) {
+    if (!free[n]) return;
+    res_[3 * n] = hashed_unit(static_cast<std::uint64_t>((k * nn[1] + j) * nn[0] + i));
+    z_[3 * n] = p_[3 * n] = res_[3 * n] / diag_[n];
+    rz_l.add(res_[3 * n] * z_[3 * n]);
+  });
+  double rz = 0;
+  red_.sum(&rz_l, &rz, 1);
+  const double rz0 = rz;
+  std::vector<double> alpha, beta;
+  for (int it = 0; it < kLanczosSteps && rz > 1e-28 * rz0; ++it) {
+    halo_.gather(p_.data());
+    sys_.apply(k_, inv_dt2_, p_.data(), ad_.data());
+    parallel::ExactSum pap_l;
+    for_owned(O, G, [&](std::size_t n, long, long, long) { pap_l.add(p_[3 * n] * ad_[3 * n]); });
+    double pap = 0;
+    red_.sum(&pap_l, &pap, 1);
+    if (!(pap > 0)) break;
+    const double a = rz / pap;
+    parallel::ExactSum rz_new_l;
+    for_owned(O, G, [&](std::size_t n, long, long, long) {
+      res_[3 * n] -= a * ad_[3 * n];
+      z_[3 * n] = res_[3 * n] / diag_[n];
+      rz_new_l.add(res_[3 * n] * z_[3 * n]);
+    });
+    double rz_new = 0;
+    red_.sum(&rz_new_l, &rz_new, 1);
+    const double b = rz_new / rz;
+    rz = rz_new;
+    for_owned(O, G,
+              [&](std::size_t n, long, long, long) { p_[3 * n] = z_[3 * n] + b * p_[3 * n]; });
+    alpha.push_back(a);
+    beta.push_back(b);
+  }
+  std::fill(res_.begin(), res_.end(), 0.0);
+  std::fill(z_.begin(), z_.end(), 0.0);
+  std::fill(p_.begin(), p_.end(), 0.0);
+  std::fill(ad_.begin(), ad_.end(), 0.0);
+  const int m = static_cast<int>(alpha.size());
+  if (m == 0) {  // no free node (or an operator without positive curvature): nothing to solve
+    ritz_min_ = ritz_max_ = 1.0;
+  } else {
+    Eigen::MatrixXd T = Eigen::MatrixXd::Zero(m, m);
+    for (int j = 0; j < m; ++j) {
+      T(j, j) = 1.0 / alpha[j] + (j > 0 ? beta[j - 1] / alpha[j - 1] : 0.0);
+      if (j + 1 < m) T(j, j + 1) = T(j + 1, j) = std::sqrt(beta[j]) / alpha[j];
+    }
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(T, Eigen::EigenvaluesOnly);
+    ritz_min_ = eig.eigenvalues()(0);
+    ritz_max_ = eig.eigenvalues()(m - 1);
+  }
+  // Upper end: Ritz values lie inside the spectrum, so the largest is raised by a safety
+  // factor (an eigenvalue above lmax would be amplified). Lower end: the subspace start has
+  // already removed the smoothest error, and an eigenvalue below lmin is damped more slowly
+  // but never amplified, so lmin = chebyshev_ratio * lmax (measured best near 0.05 at the
+  // default inner tolerance); chebyshev_ratio = 0 takes the smallest Ritz value instead, the
+  // interval of the whole spectrum, which wins for tight inner tolerances.
+  cheb_lmax_ = kChebyshevSafety * ritz_max_;
+  cheb_lmin_ = cfg_.chebyshev_ratio > 0 ? cfg_.chebyshev_ratio * cheb_lmax_ : ritz_min_;
+  log::info(
+      "Chebyshev relaxation: D^-1 A eigenvalues in [{:.4g}, {:.4g}] ({} Lanczos steps, "
+      "Ritz values {:.4g} to {:.4g})",
+      cheb_lmin_, cheb_lmax_, m, ritz_min_, ritz_max_);
+}
+
+InnerStats GlobalSolver::chebyshev(const std::vector<double>& r, std::vector<double>& delta,
+                                   double rnorm) {
+  // Chebyshev semi-iteration on D^-1 A with eigenvalue interval [lmin, lmax] (Saad, Iterative
+  // Methods, Alg. 12.1, preconditioned by D): after s sweeps the error is multiplied by the
+  // scaled Chebyshev polynomial of degree s, the smallest on [lmin, lmax] among polynomials
+  // with p(0) = 1. The residual is recomputed from delta each sweep (one operator application
+  // and one halo exchange per sweep, as for Jacobi); the update d lives in p_.
+  const Box& G = sys_.ghosted();
+  const auto& free = sys_.free_mask();
+  const double theta = 0.5 * (cheb_lmax_ + cheb_lmin_), half = 0.5 * (cheb_lmax_ - cheb_lmin_);
+  const double sigma = theta / half;
+  double rho = 1.0 / sigma;
+  const int check_every = 8;
+  InnerStats st;
+  st.relative_residual = 1.0;
+  for (int s = 1; s <= cfg_.max_sweeps; ++s) {
+    double c_old = 0.0, c_res = 1.0 / theta;  // d = c_old d + c_res D^-1 (r - A delta)
+    if (s > 1) {
+      const double rho_new = 1.0 / (2.0 * sigma - rho);
+      c_old = rho_new * rho;
+      c_res = 2.0 * rho_new / half;
+      rho = rho_new;
+    }
+    {
+      PhaseTimers::Scope t(timers_, "halo");
+      halo_.gather(delta.data());
+    }
+    {
+      PhaseTimers::Scope t(timers_, "sweeps");
+      sys_.apply(k_, inv_dt2_, delta.data(), ad_.data());
+      for_owned(sys_.owned(), G, [&](std::size_t n, long, long, long) {
+        if (!free[n]) return;
+        for (int d = 0; d < 3; ++d) {
+          const std::size_t q = 3 * n + d;
+          const double rr = r[q] - ad_[q];
+          res_[q] = rr;
+          p_[q] = c_old * p_[q] + c_res * rr / diag_[n];
+          delta[q] += p_[q];
         }
       });
     }

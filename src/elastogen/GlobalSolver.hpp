@@ -1,6 +1,6 @@
 //! RNN-2 of ElastoGen: solves (M/dt^2 + k L) delta = r matrix-free, started from the
-//! low-frequency subspace solution and refined by damped Jacobi sweeps (or CG), with one
-//! halo exchange per sweep.
+//! low-frequency subspace solution and refined by damped Jacobi sweeps, Chebyshev-accelerated
+//! Jacobi sweeps, or CG, with one halo exchange per sweep.
 #pragma once
 
 #include <Eigen/Dense>
@@ -27,6 +27,11 @@ class GlobalSolver {
   InnerStats solve(const std::vector<double>& r, std::vector<double>& delta);
 
   int subspace_modes() const { return static_cast<int>(modes_.size()); }
+  //! Chebyshev interval [lmin, lmax] for the eigenvalues of D^-1 A (0, 0 unless
+  //! relaxation = "chebyshev"), and the largest Lanczos Ritz value it was built from.
+  double chebyshev_lmin() const { return cheb_lmin_; }
+  double chebyshev_lmax() const { return cheb_lmax_; }
+  double lanczos_lmax() const { return ritz_max_; }
   parallel::Reducer& reducer() { return red_; }
   parallel::Halo& halo() { return halo_; }
 
@@ -38,8 +43,10 @@ class GlobalSolver {
   double mode_value(const Mode& m, long i, long j, long k) const {
     return cos_[0][m.a][i] * cos_[1][m.b][j] * cos_[2][m.c][k];
   }
-  void subspace_start(const std::vector<double>& r, std::vector<double>& delta);
+  void subspace_start(const std::vector<double>& r, std::vector<double>& delta, double rnorm);
   InnerStats jacobi(const std::vector<double>& r, std::vector<double>& delta, double rnorm);
+  InnerStats chebyshev(const std::vector<double>& r, std::vector<double>& delta, double rnorm);
+  void estimate_spectrum();
   InnerStats cg(const std::vector<double>& r, std::vector<double>& delta, double rnorm);
   double owned_norm2(const std::vector<double>& a);
 
@@ -54,6 +61,7 @@ class GlobalSolver {
   std::vector<Mode> modes_;
   std::vector<std::vector<double>> cos_[3];  // per axis: per frequency, per global index
   Eigen::MatrixXd subspace_pinv_;            // (Phi^T A Phi)^+, identical on every rank
+  double cheb_lmin_ = 0, cheb_lmax_ = 0, ritz_min_ = 0, ritz_max_ = 0;
 };
 
 }  // namespace gen4d::elastogen
