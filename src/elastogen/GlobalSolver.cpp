@@ -13,35 +13,6 @@ namespace {
 constexpr int kLanczosSteps = 24;          //!< set-up iterations of the lambda_max estimate
 constexpr double kChebyshevSafety = 1.05;  //!< lambda_max = safety * largest Ritz value
 
-//! Rounds the terms of a sum to a fixed grid 2^e, chosen from a bound on every term and on
-//! the number of terms so that ExactSum then adds them (on every rank and in the reduction)
-//! without a single rounding: the total is the same for any order and decomposition, even
-//! when the terms cancel. ExactSum alone keeps rounding errors in its low part, which decide
-//! the last bits of a sum that cancels to ~0 (as the subspace projections of a symmetric load
-//! do) and so broke bit-identity across rank counts. The grid lies 2^-104 below the bound
-//! times the squared term count: far below the precision of double for any term that matters.
-class GridRounding {
- public:
-  GridRounding(double max_term, long long terms) {
-    if (!(max_term > 0)) return;  // all terms zero: nothing to round
-    int l = 0;
-    while ((1LL << l) < terms) ++l;
-    // |partial sums| <= 2^(b+1+l) with b = ilogb(max_term); ExactSum's low part collects at
-    // most 2^l errors of <= 2^(b+l-52) each, exact while below 2^(e+53).
-    const int e = std::ilogb(max_term) + 2 * l - 104;
-    c_ = std::ldexp(1.5, e + 52);
-    lim_ = std::ldexp(1.0, e + 52);
-  }
-  double operator()(double v) const { return std::fabs(v) < lim_ ? (v + c_) - c_ : v; }
-
- private:
-  double c_ = 0, lim_ = 0;
-};
-
-//! Terms of one projection summed across all ranks, with the reduction's own adds.
-long long projection_terms(const VoxelSystem& sys) {
-  return sys.global_free_nodes() + 2LL * sys.grid().size() + 1;
-}
 }  // namespace
 
 GlobalSolver::GlobalSolver(VoxelSystem& sys, const SolverConfig& cfg, double k, double dt,
@@ -113,15 +84,10 @@ void GlobalSolver::build_subspace() {
           phi[3 * n] = free[n] ? mode_value(modes_[j], i, jj, k) : 0.0;
         }
     sys_.apply(k_, inv_dt2_, phi.data(), aphi.data());
-    double amax = 0;  // |phi| <= 1, so |A phi| bounds every term
-    for_owned(sys_.owned(), G, [&](std::size_t n, long, long, long) {
-      amax = std::max(amax, std::fabs(aphi[3 * n]));
-    });
-    const GridRounding grid(red_.max(amax), projection_terms(sys_));
     for_owned(sys_.owned(), G, [&](std::size_t n, long i, long jj, long k) {
       if (!free[n]) return;
       for (int m = 0; m < K; ++m)
-        local[m * K + j].add(grid(mode_value(modes_[m], i, jj, k) * aphi[3 * n]));
+        local[m * K + j].add(mode_value(modes_[m], i, jj, k) * aphi[3 * n]);
     });
   }
   Eigen::MatrixXd S(K, K);
@@ -135,20 +101,18 @@ void GlobalSolver::build_subspace() {
   subspace_pinv_ = eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
 }
 
-void GlobalSolver::subspace_start(const std::vector<double>& r, std::vector<double>& delta,
-                                  double rnorm) {
+void GlobalSolver::subspace_start(const std::vector<double>& r, std::vector<double>& delta) {
   const int K = static_cast<int>(modes_.size());
   const Box& G = sys_.ghosted();
   const auto& free = sys_.free_mask();
   std::vector<parallel::ExactSum> local(static_cast<std::size_t>(3 * K));
   {
     PhaseTimers::Scope t(timers_, "subspace");
-    const GridRounding grid(rnorm, projection_terms(sys_));  // |phi r_i| <= ||r||
     for_owned(sys_.owned(), G, [&](std::size_t n, long i, long j, long k) {
       if (!free[n]) return;
       for (int m = 0; m < K; ++m) {
         const double phi = mode_value(modes_[m], i, j, k);
-        for (int d = 0; d < 3; ++d) local[3 * m + d].add(grid(phi * r[3 * n + d]));
+        for (int d = 0; d < 3; ++d) local[3 * m + d].add(phi * r[3 * n + d]);
       }
     });
   }
@@ -177,7 +141,7 @@ InnerStats GlobalSolver::solve(const std::vector<double>& r, std::vector<double>
   const double rnorm = std::sqrt(owned_norm2(r));
   delta.assign(r.size(), 0.0);
   if (rnorm == 0.0) return {};
-  if (!modes_.empty()) subspace_start(r, delta, rnorm);
+  if (!modes_.empty()) subspace_start(r, delta);
   if (cfg_.relaxation == "cg") return cg(r, delta, rnorm);
   if (cfg_.relaxation == "chebyshev") return chebyshev(r, delta, rnorm);
   return jacobi(r, delta, rnorm);

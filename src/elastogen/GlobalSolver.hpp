@@ -43,7 +43,7 @@ class GlobalSolver {
   double mode_value(const Mode& m, long i, long j, long k) const {
     return cos_[0][m.a][i] * cos_[1][m.b][j] * cos_[2][m.c][k];
   }
-  void subspace_start(const std::vector<double>& r, std::vector<double>& delta, double rnorm);
+  void subspace_start(const std::vector<double>& r, std::vector<double>& delta);
   InnerStats jacobi(const std::vector<double>& r, std::vector<double>& delta, double rnorm);
   InnerStats chebyshev(const std::vector<double>& r, std::vector<double>& delta, double rnorm);
   void estimate_spectrum();

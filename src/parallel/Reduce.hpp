@@ -41,18 +41,12 @@ class ExactSum {
     const int pos = (exponent == 0 ? 1 : exponent) - 1;
     const int d = pos >> 5;
     const unsigned __int128 m = static_cast<unsigned __int128>(mantissa) << (pos & 31);
-    const auto c0 = static_cast<std::int64_t>(static_cast<std::uint64_t>(m) & 0xFFFFFFFFu);
-    const auto c1 = static_cast<std::int64_t>(static_cast<std::uint64_t>(m >> 32) & 0xFFFFFFFFu);
-    const auto c2 = static_cast<std::int64_t>(static_cast<std::uint64_t>(m >> 64));
-    if (bits >> 63) {
-      digit_[d] -= c0;
-      digit_[d + 1] -= c1;
-      digit_[d + 2] -= c2;
-    } else {
-      digit_[d] += c0;
-      digit_[d + 1] += c1;
-      digit_[d + 2] += c2;
-    }
+    // Branch-free sign: (c ^ s) - s negates c when s = -1.
+    const std::int64_t sg = -static_cast<std::int64_t>(bits >> 63);
+    const auto lo = static_cast<std::uint64_t>(m);
+    digit_[d] += (static_cast<std::int64_t>(lo & 0xFFFFFFFFu) ^ sg) - sg;
+    digit_[d + 1] += (static_cast<std::int64_t>(lo >> 32) ^ sg) - sg;
+    digit_[d + 2] += (static_cast<std::int64_t>(static_cast<std::uint64_t>(m >> 64)) ^ sg) - sg;
     if (++pending_ == kMaxPending) normalize();
   }
   void add(const ExactSum& o);
