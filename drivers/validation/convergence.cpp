@@ -33,10 +33,6 @@
 //      --plain-cap) until its error reaches that of K = 18 Jacobi at L = 50; "did not reach"
 //      if the cap comes first.
 //   4. Exit 1 if K = 18 damped Jacobi at L = 50 is above --tolerance (default 1 %).
-#include <mpi.h>
-#include <petscsys.h>
-
-#include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -47,6 +43,7 @@
 #include "core/Error.hpp"
 #include "core/Log.hpp"
 #include "elastogen/Simulation.hpp"
+#include "validation/DriverCommon.hpp"
 
 using namespace gen4d;
 
@@ -223,44 +220,26 @@ int run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  MPI_Init(&argc, &argv);
-  int rank = 0;
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  log::set_rank(rank);
-  PetscOptionsSetValue(nullptr, "-no_signal_handler", nullptr);
-  PetscInitializeNoArguments();
   Options o;
-  CLI::App app{"ElastoGen vs Newton reference: error vs relaxation loops, twisted beam"};
-  app.add_option("--steps", o.steps, "Time steps")->check(CLI::Range(1, 100000));
-  app.add_option("--dt", o.dt, "Time step in seconds")->check(CLI::PositiveNumber);
-  app.add_option("--voxel", o.voxel, "Voxel size in metres")->check(CLI::PositiveNumber);
-  app.add_option("--youngs", o.youngs, "Young's modulus in Pa")->check(CLI::PositiveNumber);
-  app.add_option("--twist", o.twist_deg, "Total twist of the free end over the run, degrees");
-  app.add_option("--max-outer", o.max_outer, "Outer (RNN-1) loops per step at most")
-      ->check(CLI::Range(1, 1000000));
-  app.add_option("--outer-tolerance", o.outer_tolerance,
-                 "RNN-1 stops when the relative change of x falls below this")
-      ->check(CLI::PositiveNumber);
-  app.add_option("--plain-cap", o.plain_cap, "Most loops tried for plain Jacobi")
-      ->check(CLI::Range(50, 1000000));
-  app.add_option("--anderson", o.anderson, "Anderson depth of the outer loop (0 = off)")
-      ->check(CLI::Range(0, 16));
-  app.add_option("--tolerance", o.tolerance, "Allowed error of K = 18 Jacobi at 50 loops");
-  app.add_option("--csv", o.csv, "Write the table to this CSV file");
-  int code = 0;
-  try {
-    app.parse(argc, argv);
-    code = run(o);
-  } catch (const CLI::ParseError& e) {
-    code = app.exit(e);
-  } catch (const InputError& e) {
-    if (rank == 0) log::error_str(e.what());
-    code = 2;
-  } catch (const std::exception& e) {
-    if (rank == 0) log::error_str(e.what());
-    code = 1;
-  }
-  PetscFinalize();
-  MPI_Finalize();
-  return code;
+  return driver::main_with(
+      argc, argv, "ElastoGen vs Newton reference: error vs relaxation loops, twisted beam",
+      [&](CLI::App& app) {
+        app.add_option("--steps", o.steps, "Time steps")->check(CLI::Range(1, 100000));
+        app.add_option("--dt", o.dt, "Time step in seconds")->check(CLI::PositiveNumber);
+        app.add_option("--voxel", o.voxel, "Voxel size in metres")->check(CLI::PositiveNumber);
+        app.add_option("--youngs", o.youngs, "Young's modulus in Pa")->check(CLI::PositiveNumber);
+        app.add_option("--twist", o.twist_deg, "Total twist of the free end over the run, degrees");
+        app.add_option("--max-outer", o.max_outer, "Outer (RNN-1) loops per step at most")
+            ->check(CLI::Range(1, 1000000));
+        app.add_option("--outer-tolerance", o.outer_tolerance,
+                       "RNN-1 stops when the relative change of x falls below this")
+            ->check(CLI::PositiveNumber);
+        app.add_option("--plain-cap", o.plain_cap, "Most loops tried for plain Jacobi")
+            ->check(CLI::Range(50, 1000000));
+        app.add_option("--anderson", o.anderson, "Anderson depth of the outer loop (0 = off)")
+            ->check(CLI::Range(0, 16));
+        app.add_option("--tolerance", o.tolerance, "Allowed error of K = 18 Jacobi at 50 loops");
+        app.add_option("--csv", o.csv, "Write the table to this CSV file");
+      },
+      [&] { return run(o); });
 }

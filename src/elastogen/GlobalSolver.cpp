@@ -150,33 +150,38 @@ InnerStats GlobalSolver::solve(const std::vector<double>& r, std::vector<double>
 InnerStats GlobalSolver::jacobi(const std::vector<double>& r, std::vector<double>& delta,
                                 double rnorm) {
   const Box& G = sys_.ghosted();
-  const auto& free = sys_.free_mask();
   const double omega = cfg_.jacobi_omega;
   const int check_every = 8;
   InnerStats st;
   st.relative_residual = 1.0;
+  // Sweeps alternate between delta and a second buffer (Jacobi reads only old values);
+  // the residual is stored only on the sweeps that check it.
+  tmp_.resize(delta.size());
+  std::vector<double>* cur = &delta;
+  std::vector<double>* next = &tmp_;
   for (int s = 1; s <= cfg_.max_sweeps; ++s) {
     {
       PhaseTimers::Scope t(timers_, "halo");
-      halo_.gather(delta.data());
+      halo_.gather(cur->data());
     }
+    const bool check = s % check_every == 0 || s == cfg_.max_sweeps;
     {
       PhaseTimers::Scope t(timers_, "sweeps");
-      sys_.apply(k_, inv_dt2_, delta.data(), ad_.data());
-      for_owned(sys_.owned(), G, [&](std::size_t n, long, long, long) {
-        if (!free[n]) return;
-        for (int d = 0; d < 3; ++d) {
-          const double rr = r[3 * n + d] - ad_[3 * n + d];
-          res_[3 * n + d] = rr;
-          delta[3 * n + d] += omega * rr / diag_[n];
-        }
-      });
+      sys_.jacobi_sweep(k_, inv_dt2_, omega, r.data(), diag_.data(), cur->data(), next->data(),
+                        check ? res_.data() : nullptr);
     }
+    std::swap(cur, next);
     st.sweeps = s;
-    if (s % check_every == 0 || s == cfg_.max_sweeps) {
+    if (check) {
       st.relative_residual = std::sqrt(owned_norm2(res_)) / rnorm;
       if (st.relative_residual < cfg_.inner_tolerance) break;
     }
+  }
+  if (cur != &delta) {
+    PhaseTimers::Scope t(timers_, "sweeps");
+    for_owned(sys_.owned(), G, [&](std::size_t n, long, long, long) {
+      for (int d = 0; d < 3; ++d) delta[3 * n + d] = (*cur)[3 * n + d];
+    });
   }
   PhaseTimers::Scope t(timers_, "halo");
   halo_.gather(delta.data());

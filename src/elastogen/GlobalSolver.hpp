@@ -57,7 +57,7 @@ class GlobalSolver {
   parallel::Halo halo_;
   parallel::Reducer red_;
   std::vector<double> diag_;
-  std::vector<double> ad_, res_, z_, p_;  // work arrays on the ghosted box
+  std::vector<double> ad_, res_, z_, p_, tmp_;  // work arrays on the ghosted box
   std::vector<Mode> modes_;
   std::vector<std::vector<double>> cos_[3];  // per axis: per frequency, per global index
   Eigen::MatrixXd subspace_pinv_;            // (Phi^T A Phi)^+, identical on every rank

@@ -66,6 +66,11 @@ class VoxelSystem {
   //! current. This is the seed's convolution / per-voxel multiply / transposed convolution
   //! fused into one 27-point stencil (the composition G^T k G for the trilinear voxel).
   void apply(double k, double inv_dt2, const double* delta, double* out) const;
+  //! One damped-Jacobi sweep fused with the operator (one pass over memory): on free owned
+  //! nodes rr = r - A d_old, d_new = d_old + rr * omega / diag, and res = rr when res is not
+  //! null; held nodes copy d_old. d_old's ghosts must be current; d_old and d_new differ.
+  void jacobi_sweep(double k, double inv_dt2, double omega, const double* r, const double* diag,
+                    const double* d_old, double* d_new, double* res) const;
   //! Diagonal of the same operator on owned nodes (1 on non-free nodes).
   void diagonal(double k, double inv_dt2, std::vector<double>& diag) const;
 
@@ -76,6 +81,11 @@ class VoxelSystem {
   parallel::ExactSum internal_forces(const StressFn& stress, const double* x, double* f);
 
  private:
+  //! Evaluates A delta row by row and hands each run of owned nodes to
+  //! emit(first node, node count, values (3 per node)): runs of interior nodes in one call,
+  //! other nodes one at a time (0 for held or empty nodes).
+  template <class Emit>
+  void operator_rows(double k, double inv_dt2, const double* delta, Emit&& emit) const;
   std::size_t cell_index(long ci, long cj, long ck) const { return cells().index(ci, cj, ck); }
 
   const parallel::NodeGrid& grid_;
@@ -88,6 +98,9 @@ class VoxelSystem {
   std::vector<double> cell_forces_;  // 24 per adjacent cell
   long global_solid_ = 0, global_free_ = 0;
   std::array<double, 27> interior_stencil_{};  // unit-cube coefficients, x fastest
+  std::array<double, 4> stencil_class_{};      // mean coefficient: centre, face, edge, corner
+  double interior_mass_ = 0;                   // lumped mass of a node with 8 solid voxels
+  mutable std::vector<double> row_;            // one row of operator values
   std::array<long, 27> interior_offset_{};     // ghosted linear offsets of the 27 neighbours
   std::array<long, 8> corner_offset_{};  // ghosted linear offset of corner m from the cell base
 };
