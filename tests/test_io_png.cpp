@@ -7,6 +7,7 @@
 #include "core/Error.hpp"
 #include "io/FrameWriter.hpp"
 #include "io/PngPreview.hpp"
+#include "png_test_util.hpp"
 #include "test_io_support.hpp"
 
 namespace gen4d::io {
@@ -16,28 +17,8 @@ using namespace iotest;
 
 const std::array<long, 3> kDims{7, 6, 5};
 
-struct Picture {
-  int width = 0, height = 0;
-  std::vector<std::uint8_t> rgb;
-  std::array<std::uint8_t, 3> at(int x, int y) const {
-    const std::size_t p = 3 * (std::size_t(y) * width + x);
-    return {rgb[p], rgb[p + 1], rgb[p + 2]};
-  }
-};
-
-Picture load_png(const std::string& path) {
-  png_image image{};
-  image.version = PNG_IMAGE_VERSION;
-  Picture picture;
-  if (!png_image_begin_read_from_file(&image, path.c_str())) return picture;
-  image.format = PNG_FORMAT_RGB;
-  picture.rgb.resize(PNG_IMAGE_SIZE(image));
-  if (png_image_finish_read(&image, nullptr, picture.rgb.data(), 0, nullptr)) {
-    picture.width = static_cast<int>(image.width);
-    picture.height = static_cast<int>(image.height);
-  }
-  return picture;
-}
+using test::Picture;
+using test::load_png;
 
 //! Pixels unlike the background, which the leftmost column shows (the solid sits centred).
 int object_pixels(const Picture& p) {

@@ -12,6 +12,7 @@
 #include "core/Error.hpp"
 #include "io/PngPreview.hpp"
 #include "io/SurfaceIO.hpp"
+#include "png_test_util.hpp"
 #include "test_io_support.hpp"
 
 namespace gen4d::io {
@@ -171,28 +172,8 @@ TEST(SurfaceFiles, SequenceListingAndPruning) {
   EXPECT_TRUE(list_surface_sequence(dir + "/absent").empty());
 }
 
-struct Picture {
-  int width = 0, height = 0;
-  std::vector<std::uint8_t> rgb;
-  std::array<std::uint8_t, 3> at(int x, int y) const {
-    const std::size_t p = 3 * (std::size_t(y) * width + x);
-    return {rgb[p], rgb[p + 1], rgb[p + 2]};
-  }
-};
-
-Picture load_png(const std::string& path) {
-  png_image image{};
-  image.version = PNG_IMAGE_VERSION;
-  Picture picture;
-  if (!png_image_begin_read_from_file(&image, path.c_str())) return picture;
-  image.format = PNG_FORMAT_RGB;
-  picture.rgb.resize(PNG_IMAGE_SIZE(image));
-  if (png_image_finish_read(&image, nullptr, picture.rgb.data(), 0, nullptr)) {
-    picture.width = static_cast<int>(image.width);
-    picture.height = static_cast<int>(image.height);
-  }
-  return picture;
-}
+using test::Picture;
+using test::load_png;
 
 //! The object's orange material (red well above blue), as no background or ground is.
 bool is_shaded(const std::array<std::uint8_t, 3>& c) {

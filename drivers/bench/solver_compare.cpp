@@ -11,9 +11,10 @@
 //      nu = 0.3, rho = 1000, released under gravity; one frame = one step of dt = 0.01 s.
 //   2. The Newton reference (PETSc SNES, CG + GAMG) runs `frames` steps: the ground truth and
 //      the baseline time.
-//   3. ElastoGen runs the same frames with the accuracy tolerance at 1e-3, tightened by
-//      steps of 3x until the tip trajectory is within `--accuracy` (default 1 %) of Newton's
-//      (max |z_E - z_N| / max |z_N - z_N(0)|); that run's time per frame is compared.
+//   3. ElastoGen runs the same frames with the accuracy tolerance at 1e-2, tightened by
+//      steps of ~3x (down to 1e-4) until the tip trajectory is within `--accuracy`
+//      (default 1 %) of Newton's (max |z_E - z_N| / max |z_N - z_N(0)|): the loosest setting
+//      that meets the target; that run's time per frame is compared.
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -109,12 +110,14 @@ int run(const Options& o) {
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   const Run n = simulate(o, "newton", 1e-3);
   log::info("newton: {:.3f} s/frame, {} DoFs", n.seconds / o.frames, n.dofs);
+  // Equal accuracy: the loosest accuracy tolerance whose tip trajectory is within the target.
   Run e;
-  double tol = 1e-3, err = 0;
-  for (int attempt = 0; attempt < 5; ++attempt, tol /= 3) {
-    e = simulate(o, "elastogen", tol);
+  double tol = 0, err = 0;
+  for (double t : {1e-2, 3e-3, 1e-3, 3e-4, 1e-4}) {
+    e = simulate(o, "elastogen", t);
+    tol = t;
     err = tip_error(e, n);
-    log::info("elastogen accuracy_tolerance {:.1e}: {:.3f} s/frame, tip error {:.3f} %", tol,
+    log::info("elastogen accuracy_tolerance {:.1e}: {:.3f} s/frame, tip error {:.3f} %", t,
               e.seconds / o.frames, 100 * err);
     if (err <= o.accuracy) break;
   }
