@@ -17,8 +17,8 @@ using namespace iotest;
 
 const std::array<long, 3> kDims{7, 6, 5};
 
-using test::Picture;
 using test::load_png;
+using test::Picture;
 
 //! Pixels unlike the background, which the leftmost column shows (the solid sits centred).
 int object_pixels(const Picture& p) {

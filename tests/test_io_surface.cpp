@@ -172,8 +172,8 @@ TEST(SurfaceFiles, SequenceListingAndPruning) {
   EXPECT_TRUE(list_surface_sequence(dir + "/absent").empty());
 }
 
-using test::Picture;
 using test::load_png;
+using test::Picture;
 
 //! The object's orange material (red well above blue), as no background or ground is.
 bool is_shaded(const std::array<std::uint8_t, 3>& c) {
