@@ -3,6 +3,7 @@
 
 #include <mpi.h>
 
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -50,6 +51,22 @@ inline int world_rank() {
   int r = 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &r);
   return r;
+}
+
+//! An empty scratch folder per test name and rank count under the build tree (collective).
+inline std::string scratch_dir(const std::string& name) {
+  namespace fs = std::filesystem;
+  int size = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  const std::string d =
+      (fs::path(GEN4D_BINARY_DIR) / "tests" / "scratch" / (name + "_np" + std::to_string(size)))
+          .string();
+  if (world_rank() == 0) {
+    fs::remove_all(d);
+    fs::create_directories(d);
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  return d;
 }
 
 }  // namespace gen4d::test

@@ -104,19 +104,7 @@ Config wobble(const std::vector<std::string>& sets = {}) {
   return parse_deck(kWobbleDeck, "<wobble>", ".", sets);
 }
 
-std::string scratch_dir(const std::string& name) {
-  int size = 1;
-  MPI_Comm_size(MPI_COMM_WORLD, &size);
-  const std::string d =
-      (fs::path(GEN4D_BINARY_DIR) / "tests" / "scratch" / (name + "_np" + std::to_string(size)))
-          .string();
-  if (test::world_rank() == 0) {
-    fs::remove_all(d);
-    fs::create_directories(d);
-  }
-  MPI_Barrier(MPI_COMM_WORLD);
-  return d;
-}
+using test::scratch_dir;
 
 //! Runs `steps` steps on MPI_COMM_WORLD and on MPI_COMM_SELF (rank 0) and expects every
 //! position and velocity bit to agree. Every owned-node update reads its 8 neighbour voxels in

@@ -21,19 +21,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string scratch_dir(const std::string& name) {
-  int size = 1;
-  MPI_Comm_size(MPI_COMM_WORLD, &size);
-  const std::string d =
-      (fs::path(GEN4D_BINARY_DIR) / "tests" / "scratch" / (name + "_np" + std::to_string(size)))
-          .string();
-  if (test::world_rank() == 0) {
-    fs::remove_all(d);
-    fs::create_directories(d);
-  }
-  MPI_Barrier(MPI_COMM_WORLD);
-  return d;
-}
+using test::scratch_dir;
 
 // A 5 x 4 x 3 voxel block, clamped at x = 0 and pushed at its far end; the tests compare
 // surfaces bit for bit across rank counts.
