@@ -3,6 +3,7 @@
 #include <cmath>
 #include <csignal>
 #include <filesystem>
+#include <functional>
 
 #include <fmt/ranges.h>
 
@@ -19,6 +20,24 @@ namespace gen4d::elastogen {
 
 namespace {
 volatile std::sig_atomic_t g_signal = 0;
+
+//! Runs `work` on rank 0 only; if it throws, every rank throws a RuntimeError (rank 0 with
+//! the original message, the others with `elsewhere`). Collective.
+void on_rank0(MPI_Comm comm, int rank, const std::string& elsewhere,
+              const std::function<void()>& work) {
+  std::string error;
+  if (rank == 0) {
+    try {
+      work();
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
+  int failed = error.empty() ? 0 : 1;
+  MPI_Bcast(&failed, 1, MPI_INT, 0, comm);
+  if (failed) throw RuntimeError(rank == 0 ? error : elsewhere);
+}
+
 extern "C" void on_signal(int sig) {
   g_signal = sig;
 }
@@ -184,15 +203,11 @@ std::string Simulation::write_checkpoint(const std::string& out_dir) {
 
 std::unique_ptr<io::FrameWriter> Simulation::open_frames(const std::string& out_dir, bool append) {
   PhaseTimers::Scope t(timers_, "io");
-  std::string error;
-  if (rank_ == 0) {
+  on_rank0(comm_, rank_, out_dir + ": cannot create directory", [&] {
     std::error_code ec;
     std::filesystem::create_directories(out_dir, ec);
-    if (ec) error = out_dir + ": cannot create the output directory: " + ec.message();
-  }
-  int failed = error.empty() ? 0 : 1;
-  MPI_Bcast(&failed, 1, MPI_INT, 0, comm_);
-  if (failed) throw RuntimeError(rank_ == 0 ? error : out_dir + ": cannot create directory");
+    if (ec) throw RuntimeError(out_dir + ": cannot create the output directory: " + ec.message());
+  });
   const std::string path = (std::filesystem::path(out_dir) / "frames.h5").string();
   if (append)
     return std::make_unique<io::FrameWriter>(
@@ -228,30 +243,22 @@ void Simulation::open_surface(const std::string& out_dir, const io::FrameWriter&
   surface_dir_ = (std::filesystem::path(out_dir) / io::kSurfaceDir).string();
   // Frames later than the last one kept were dropped from frames.h5 (or all, for a fresh run).
   const long keep = writer.frames().empty() ? -1 : writer.frames().back().index;
-  std::string error;
-  if (rank_ == 0) {
-    try {
-      std::error_code ec;
-      std::filesystem::create_directories(surface_dir_, ec);
-      if (ec) throw RuntimeError(surface_dir_ + ": cannot create directory: " + ec.message());
-      io::prune_surface_sequence(surface_dir_, keep);
-    } catch (const std::exception& e) {
-      error = e.what();
-    }
-  }
-  int failed = error.empty() ? 0 : 1;
-  MPI_Bcast(&failed, 1, MPI_INT, 0, comm_);
-  if (failed) throw RuntimeError(rank_ == 0 ? error : surface_dir_ + ": cannot prepare");
+  on_rank0(comm_, rank_, surface_dir_ + ": cannot prepare", [&] {
+    std::error_code ec;
+    std::filesystem::create_directories(surface_dir_, ec);
+    if (ec) throw RuntimeError(surface_dir_ + ": cannot create directory: " + ec.message());
+    io::prune_surface_sequence(surface_dir_, keep);
+  });
 }
 
 void Simulation::write_surface(long index) {
   const double start = MPI_Wtime();
-  dyn_->sync_ghosts();  // cheap insurance: corners of owned voxels must be current
+  // Ghost positions are current after every step, reset and restart (Elastodynamics keeps
+  // them so), which is all the corners of owned voxels need.
   std::vector<double> xyz = surface_->gather(dyn_->x().data());
   const double gathered = MPI_Wtime();
   surface_gather_seconds_ += gathered - start;
-  std::string error;
-  if (rank_ == 0) {
+  on_rank0(comm_, rank_, surface_dir_ + ": surface write failed", [&] {
     surface_mesh_.xyz = std::move(xyz);
     surface_mesh_.comments = {fmt::format(
         "gen4d surface of '{}': frame {} step {} time {} s, {}", cfg_.name, index, step_, time_,
@@ -259,17 +266,10 @@ void Simulation::write_surface(long index) {
     const std::string path =
         (std::filesystem::path(surface_dir_) / io::surface_file_name(index, surface_format_))
             .string();
-    try {
-      io::write_surface(path, surface_mesh_, surface_format_);
-      std::error_code ec;
-      surface_bytes_ += static_cast<double>(std::filesystem::file_size(path, ec));
-    } catch (const std::exception& e) {
-      error = e.what();
-    }
-  }
-  int failed = error.empty() ? 0 : 1;
-  MPI_Bcast(&failed, 1, MPI_INT, 0, comm_);
-  if (failed) throw RuntimeError(rank_ == 0 ? error : surface_dir_ + ": surface write failed");
+    io::write_surface(path, surface_mesh_, surface_format_);
+    std::error_code ec;
+    surface_bytes_ += static_cast<double>(std::filesystem::file_size(path, ec));
+  });
   ++surface_files_;
   surface_write_seconds_ += MPI_Wtime() - gathered;
 }
