@@ -14,12 +14,12 @@
 namespace gen4d::neural {
 
 struct NamedArray {
-  std::vector<long> shape;    //!< row-major; empty for a scalar
-  std::vector<double> data;   //!< product(shape) values
+  std::vector<long> shape;   //!< row-major; empty for a scalar
+  std::vector<double> data;  //!< product(shape) values
 };
 
 struct ArrayFile {
-  std::string format;                      //!< e.g. "gen4d-neuralmtl"
+  std::string format;  //!< e.g. "gen4d-neuralmtl"
   long format_version = 1;
   std::map<std::string, std::string> text;  //!< text attributes
   std::map<std::string, double> numbers;    //!< number attributes

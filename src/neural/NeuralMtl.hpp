@@ -28,8 +28,8 @@ namespace gen4d::neural {
 
 inline constexpr const char* kWeightsFormat = "gen4d-neuralmtl";
 inline constexpr long kWeightsVersion = 1;
-inline constexpr int kMaxWidth = 64;   //!< widest hidden layer the fused kernel accepts
-inline constexpr int kMaxLayers = 6;   //!< most affine layers the fused kernel accepts
+inline constexpr int kMaxWidth = 64;  //!< widest hidden layer the fused kernel accepts
+inline constexpr int kMaxLayers = 6;  //!< most affine layers the fused kernel accepts
 
 //! Laws a NeuralMTL can be fitted to (the hyperelastic laws of src/materials).
 const std::vector<std::string>& neural_laws();
@@ -50,7 +50,7 @@ struct NeuralMtlWeights {
   std::string law;           //!< one of neural_laws()
   double poisson_ratio = 0;  //!< nu the network represents
   std::string source;        //!< provenance: "train-material", "generator", "generator+finetune"
-  double fit_error = -1;     //!< RMS of log(1+psi_N) - log(1+psi) on held-out samples (< 0: unknown)
+  double fit_error = -1;  //!< RMS of log(1+psi_N) - log(1+psi) on held-out samples (< 0: unknown)
   std::vector<Layer> layers;  //!< tanh between layers, none after the last
 
   //! Zero-initialised 3 -> hidden... -> 3 network.
@@ -96,7 +96,8 @@ class NeuralMtl {
   double nu_ = 0;
   int layers_ = 0;
   std::array<int, kMaxLayers + 1> width_{};  // width_[0] = 3, width_[layers_] = 3
-  std::array<std::vector<double>, kMaxLayers> W_, Wt_, b_;  // b_ of the last layer includes -m(0)
+  std::array<std::vector<double>, kMaxLayers> W_, Wt_, b_;
+  std::array<double, 3> m0_{};  // raw output at rest, subtracted by the activation
 };
 
 //! NeuralMTL as a pointwise material for the voxel solver: psi = E psi_N, P = E U diag(grad) V^T.
