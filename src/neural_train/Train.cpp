@@ -363,9 +363,14 @@ neural::NeuralMtlWeights finetune_material(const neural::NeuralMtlWeights& w0, i
 
 std::vector<int> parse_hidden(const std::string& text, const std::string& where) {
   std::vector<int> h;
-  std::stringstream ss(text);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
+  std::vector<std::string> items(1);
+  for (char c : text) {
+    if (c == ',')
+      items.emplace_back();
+    else
+      items.back() += c;
+  }
+  for (const std::string& item : items) {
     char* end = nullptr;
     const long v = std::strtol(item.c_str(), &end, 10);
     if (item.empty() || *end != '\0' || v < 1 || v > neural::kMaxWidth)
