@@ -10,6 +10,7 @@
 #include "cli/NeuralCommands.hpp"
 
 #include <CLI/CLI.hpp>
+#include <fmt/format.h>
 #include <mpi.h>
 
 #include <cmath>
@@ -39,7 +40,7 @@ struct NeuralCommands::State {
   std::uint64_t seed = 1;
   // train-generator
   std::string gen_out = "inputs/models/generator.h5", dataset;
-  int nu_count = 25, ae_steps = 8000, ddpm_steps = 30000;
+  int nu_count = 25, ae_steps = 4000, ddpm_steps = 20000;
 };
 
 NeuralCommands::NeuralCommands(CLI::App& app) : s_(std::make_unique<State>()) {
@@ -97,9 +98,9 @@ namespace {
 void check_material_args(const std::string& law, double nu, double E) {
   neural::law_index(law, "--law");
   if (!(nu >= 0.0 && nu < 0.5))
-    throw InputError("--nu " + std::to_string(nu) + ": the Poisson ratio must be in [0, 0.5)");
+    throw InputError(fmt::format("--nu {}: the Poisson ratio must be in [0, 0.5)", nu));
   if (!(E > 0.0) || !std::isfinite(E))
-    throw InputError("--E " + std::to_string(E) + ": Young's modulus must be finite and > 0");
+    throw InputError(fmt::format("--E {}: Young's modulus must be finite and > 0", E));
 }
 
 // The output's directory must exist (the write is atomic, by rename within it).

@@ -41,7 +41,7 @@ struct Options {
   std::string nu = "0.1,0.3,0.45";
   std::string gen_nu = "0.03,0.17,0.31,0.43";
   std::string dataset, generator, csv;
-  int steps = 3000, lbfgs = 500, finetune = nt::kDefaultFinetuneSteps;
+  int steps = 3000, warm_steps = 0, lbfgs = 500, finetune = nt::kDefaultFinetuneSteps;
   bool skip_fitted = false, skip_generator = false;
   double min_corr = 0.999, max_stress = 3e-3, gen_before = 0.95, gen_after = 0.99;
 };
@@ -115,7 +115,7 @@ int run(const Options& o) {
           w.poisson_ratio = nu;
         } else {
           nt::TrainOptions t;
-          t.steps = have_prev ? o.steps / 3 : o.steps;
+          t.steps = have_prev ? o.warm_steps : o.steps;
           t.lbfgs_steps = o.lbfgs;
           t.learning_rate = have_prev ? 1e-3 : 3e-3;
           nt::TrainReport r;
@@ -179,6 +179,8 @@ int main(int argc, char** argv) {
         app.add_option("--dataset", o.dataset, "Evaluate this dataset's networks instead")
             ->check(CLI::ExistingFile);
         app.add_option("--steps", o.steps, "Adam iterations of the first fit per law");
+        app.add_option("--warm-steps", o.warm_steps,
+                       "Adam iterations of the later, warm-started fits of a law");
         app.add_option("--lbfgs-steps", o.lbfgs, "L-BFGS iterations per fit");
         app.add_option("--generator", o.generator, "Generator file (default: the installed one)");
         app.add_option("--gen-nu", o.gen_nu, "Poisson ratios for the generator (not in its data)");

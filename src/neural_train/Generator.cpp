@@ -1,14 +1,14 @@
 // Weight dataset, autoencoder and latent DDPM of the NeuralMTL generator (seed App. B).
 //
 // Sizes against the seed's Table 3 (AE 8192..256 FC, latent 256, Conv2D U-Net denoiser):
-// our networks have 771 parameters (3-24-24-3), not ~8k, and the dataset is ~75 networks
+// our networks have 771 parameters (3-24-24-3), not ~8k, and the dataset is 75 networks
 // lying on three smooth curves (one per law, parameterised by nu), so a 771-128-64 FC encoder
 // (mirror decoder) and a 64-dimensional latent already reconstruct them to ~1e-3 of their
 // spread, and the whole generator stays under 3 MB in float64. The denoiser is an MLP on
 // [z_t, sinusoidal embedding of t, condition] rather than the seed's 2D conv net: the latent
 // vector has no spatial structure for convolutions to exploit (the seed views it as a
-// 1-channel image only to reuse an image U-Net), and an MLP of width 192 fits the
-// delta-like conditional distribution (one network per condition) in a minute of CPU time.
+// 1-channel image only to reuse an image U-Net), and an MLP of width 128 fits the
+// delta-like conditional distribution (one network per condition) in a few minutes of CPU time.
 #include "neural_train/Generator.hpp"
 
 #include <algorithm>
@@ -170,9 +170,11 @@ WeightDataset build_dataset(const DatasetOptions& o) {
     t.seed = o.seed * 100003ULL + k;
     const bool cold = k == 0;
     const bool new_law = !cold && chain[k - 1].first != law;
-    // A change of law is a bigger jump than a change of nu: give it more iterations.
-    t.steps = cold ? o.first_steps : (new_law ? 4 * o.steps : o.steps);
-    t.lbfgs_steps = cold || new_law ? o.first_lbfgs : o.lbfgs_steps;
+    // A neighbouring nu is a small step from the previous network: L-BFGS alone converges
+    // from it (Adam's first steps, of size ~lr in every weight, would only undo the start). A
+    // change of law is a bigger jump: Adam first, then a longer L-BFGS.
+    t.steps = cold ? o.first_steps : (new_law ? o.switch_steps : o.steps);
+    t.lbfgs_steps = cold ? o.first_lbfgs : (new_law ? o.switch_lbfgs : o.lbfgs_steps);
     t.learning_rate = cold ? 3e-3 : 1e-3;
     TrainReport r;
     const auto& name = neural::neural_laws()[static_cast<std::size_t>(law)];
@@ -442,8 +444,8 @@ void train_generator(const WeightDataset& data, const GeneratorOptions& o, const
     ddpm_loss = acc / std::max(1, acc_n);
   }
   const double ddpm_seconds = seconds_since(t0);
-  log::info("latent DDPM: T = {}, MLP {} -> {} x3 -> {}, final loss {:.3e}, {:.0f} s", o.timesteps,
-            m.L + kTimeDim + kCondDim, m.D, m.L, ddpm_loss, ddpm_seconds);
+  log::info("latent DDPM: T = {}, MLP {} -> {} -> {} -> {} -> {}, final loss {:.3e}, {:.0f} s",
+            o.timesteps, m.L + kTimeDim + kCondDim, m.D, m.D, m.D, m.L, ddpm_loss, ddpm_seconds);
 
   // 3. One file: every layer, the normalisation statistics and the schedule.
   neural::ArrayFile f;
@@ -466,6 +468,9 @@ void train_generator(const WeightDataset& data, const GeneratorOptions& o, const
   f.numbers["ae_rms"] = ae_rms;
   f.numbers["ddpm_loss"] = ddpm_loss;
   f.numbers["seed"] = static_cast<double>(o.seed);
+  f.numbers["dataset_seconds"] = data.seconds;
+  f.numbers["ae_seconds"] = ae_seconds;
+  f.numbers["ddpm_seconds"] = ddpm_seconds;
   f.arrays["w_mean"] = {{m.P}, detail::to_vector(m.w_mean)};
   f.arrays["w_std"] = {{m.P}, detail::to_vector(m.w_std)};
   f.arrays["z_mean"] = {{m.L}, detail::to_vector(m.z_mean)};

@@ -36,9 +36,11 @@ struct DatasetOptions {
   int nu_count = 25;  //!< nu values per law, evenly spaced in [0, nu_max]
   double nu_max = 0.49;
   std::vector<int> hidden{24, 24};
-  int first_steps = 6000;  //!< Adam iterations of the first (cold) fit
-  int first_lbfgs = 400;
-  int steps = 300;  //!< Adam iterations of each warm-started fit
+  int first_steps = 4000;  //!< Adam iterations of the first (cold) fit
+  int first_lbfgs = 600;
+  int switch_steps = 1000;  //!< Adam iterations where the chain changes law
+  int switch_lbfgs = 400;
+  int steps = 0;  //!< Adam iterations of each warm-started fit (L-BFGS alone does better)
   int lbfgs_steps = 150;
   std::uint64_t seed = 1;
   bool progress = true;
@@ -57,10 +59,10 @@ WeightDataset read_dataset(const std::string& path);
 struct GeneratorOptions {
   int latent = 64;
   int ae_hidden = 128;
-  int ae_steps = 8000;
+  int ae_steps = 4000;
   double ae_latent_noise = 0.01;  //!< latent noise while training the decoder (robustness)
-  int ddpm_hidden = 192;
-  int ddpm_steps = 30000;
+  int ddpm_hidden = 128;
+  int ddpm_steps = 20000;
   int ddpm_batch = 128;
   int timesteps = 200;  //!< T, cosine schedule
   std::uint64_t seed = 1;
