@@ -37,11 +37,11 @@ struct DatasetOptions {
   double nu_max = 0.49;
   std::vector<int> hidden{24, 24};
   int first_steps = 4000;  //!< Adam iterations of the first (cold) fit
-  int first_lbfgs = 600;
+  int first_lbfgs = 1500;
   int switch_steps = 1000;  //!< Adam iterations where the chain changes law
-  int switch_lbfgs = 400;
+  int switch_lbfgs = 800;
   int steps = 0;  //!< Adam iterations of each warm-started fit (L-BFGS alone does better)
-  int lbfgs_steps = 150;
+  int lbfgs_steps = 400;
   std::uint64_t seed = 1;
   bool progress = true;
 };

@@ -255,7 +255,7 @@ FitMetrics evaluate_fit(const neural::NeuralMtlWeights& w, const std::vector<dou
   }
   m.correlation = sab / std::sqrt(std::max(saa * sbb, 1e-300));
   m.rms_log_error = std::sqrt(sq / static_cast<double>(n));
-  std::vector<double> big, small;
+  std::vector<double> big, small, band;
   for (std::size_t i = 0; i < n; ++i) {
     double num = 0, den = 0;
     for (int a = 0; a < 3; ++a) {
@@ -264,6 +264,7 @@ FitMetrics evaluate_fit(const neural::NeuralMtlWeights& w, const std::vector<dou
     }
     const double rel = std::sqrt(num / std::max(den, 1e-300));
     const double mag = strain_magnitude(&sigma[3 * i]);
+    if (mag >= 1e-3 && mag <= 1e-2) band.push_back(rel);
     if (mag >= 1e-3)
       big.push_back(rel);
     else if (mag >= 1e-4)
@@ -272,6 +273,8 @@ FitMetrics evaluate_fit(const neural::NeuralMtlWeights& w, const std::vector<dou
   m.stress_median = percentile(big, 0.5);
   m.stress_p99 = percentile(big, 0.99);
   m.stress_small_median = percentile(small, 0.5);
+  m.stress_band_median = percentile(band, 0.5);
+  m.stress_band_p99 = percentile(band, 0.99);
   return m;
 }
 

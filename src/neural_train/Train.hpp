@@ -46,6 +46,8 @@ struct FitMetrics {
   double stress_median = 0;  //!< median of |g_N - g| / |g| over samples with strain >= 1e-3
   double stress_p99 = 0;     //!< 99th percentile of the same
   double stress_small_median = 0;  //!< median of the same over strains in [1e-4, 1e-3)
+  double stress_band_median = 0;   //!< median over strains in [1e-3, 1e-2] (a cantilever's)
+  double stress_band_p99 = 0;      //!< 99th percentile over the same band
   std::size_t count = 0;
 };
 //! Evaluates with the LibTorch forward pass. `sigma` from sample_deformations().
