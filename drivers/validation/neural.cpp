@@ -14,8 +14,10 @@
 //      over strains >= 1e-3, and its median over strains 1e-4..1e-3.
 //   2. Generator: for each law and nu in --gen-nu (values that are not in the generator's
 //      dataset), the decoded network before fine-tuning and after --finetune-steps.
-//   3. Exit 1 when a target is missed: fitted correlation >= 0.999 and stress median <= 3e-3;
-//      generator correlation >= 0.95 before and >= 0.99 after fine-tuning.
+//   3. Exit 1 when a target is missed: fitted correlation >= 0.999 and median stress error
+//      <= 3e-3 over strains 1e-3..1e-2 (the range of a cantilever, whose stress the solver must
+//      get right to ~0.3 %); generator correlation >= 0.95 before and >= 0.99 after
+//      fine-tuning.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -126,7 +128,7 @@ int run(const Options& o) {
           have_prev = true;
         }
         const nt::FitMetrics m = nt::evaluate_fit(w, held);
-        const bool ok = m.correlation >= o.min_corr && m.stress_median <= o.max_stress;
+        const bool ok = m.correlation >= o.min_corr && m.stress_band_median <= o.max_stress;
         missed += ok ? 0 : 1;
         std::printf("%-12s %6.3f %10.6f %10.2e %10.2e %10.2e %10.2e %10.2e %10.2e %7.1f%s\n",
                     name.c_str(), nu, m.correlation, m.rms_log_error, m.stress_median, m.stress_p99,
@@ -191,7 +193,8 @@ int main(int argc, char** argv) {
         app.add_flag("--skip-fitted", o.skip_fitted, "Only the generator part");
         app.add_flag("--skip-generator", o.skip_generator, "Only the fitted networks");
         app.add_option("--min-corr", o.min_corr, "Target: fitted correlation");
-        app.add_option("--max-stress", o.max_stress, "Target: fitted stress error median");
+        app.add_option("--max-stress", o.max_stress,
+                       "Target: fitted median stress error over strains 1e-3..1e-2");
         app.add_option("--csv", o.csv, "Write every row to this CSV file");
       },
       [&] {

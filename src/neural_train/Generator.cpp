@@ -326,6 +326,8 @@ std::vector<std::pair<int, double>> Generator::trained_conditions() const {
 }
 
 neural::NeuralMtlWeights Generator::sample(int law, double nu, std::uint64_t seed) const {
+  if (law < 0 || law >= static_cast<int>(neural::neural_laws().size()) || !(nu >= 0 && nu < 0.5))
+    throw std::invalid_argument("Generator::sample: law index or nu out of range");
   detail::apply_threads();
   torch::NoGradGuard ng;
   const torch::Tensor z = impl_->sample_latent(conditions({law}, {nu}), seed);
@@ -534,8 +536,11 @@ Generator Generator::load(const std::string& path) {
   m->betas = vec("betas", m->T);
   for (double b : detail::to_vector(m->betas))
     if (!(b > 0 && b < 1)) throw InputError(path + ": dataset 'betas' holds " + std::to_string(b));
-  for (double v : f.array("dataset_law", {N}, path).data)
+  for (double v : f.array("dataset_law", {N}, path).data) {
+    if (!(v == 0 || v == 1 || v == 2))
+      throw InputError(path + ": dataset 'dataset_law' holds " + std::to_string(v));
     m->cond_law.push_back(static_cast<int>(v));
+  }
   m->cond_nu = f.array("dataset_nu", {N}, path).data;
   m->enc = Net::load(f, "enc", m->enc_sizes(), path);
   m->dec = Net::load(f, "dec", m->dec_sizes(), path);
