@@ -36,11 +36,12 @@ struct NeuralCommands::State {
   // train-material and make-material
   std::string law, out, hidden = "24,24", generator;
   double nu = 0, E = 1.0;
-  int steps = 3000, lbfgs = 150, finetune = 100, threads = 1;
+  int steps = 3000, lbfgs = 600, finetune = 200, candidates = 4, threads = 1;
   std::uint64_t seed = 1;
   // train-generator
   std::string gen_out = "inputs/models/generator.h5", dataset;
-  int nu_count = 25, ae_steps = 4000, ddpm_steps = 20000;
+  int nu_count = 25, ae_steps = 8000, ddpm_steps = 20000, ddpm_hidden = 128;
+  double ae_noise = 0.002;
 };
 
 NeuralCommands::NeuralCommands(CLI::App& app) : s_(std::make_unique<State>()) {
@@ -69,6 +70,10 @@ NeuralCommands::NeuralCommands(CLI::App& app) : s_(std::make_unique<State>()) {
       ->check(CLI::Range(2, 1000));
   s.gen->add_option("--ae-steps", s.ae_steps, "Autoencoder iterations")
       ->check(CLI::Range(1, 10000000));
+  s.gen->add_option("--ae-noise", s.ae_noise, "Latent noise while training the decoder")
+      ->check(CLI::Range(0.0, 1.0));
+  s.gen->add_option("--ddpm-hidden", s.ddpm_hidden, "Width of the denoiser's hidden layers")
+      ->check(CLI::Range(8, 1024));
   s.gen->add_option("--ddpm-steps", s.ddpm_steps, "DDPM iterations")
       ->check(CLI::Range(1, 10000000));
   s.gen->add_option("--seed", s.seed, "Random seed");
@@ -82,6 +87,10 @@ NeuralCommands::NeuralCommands(CLI::App& app) : s_(std::make_unique<State>()) {
   s.make->add_option("--E", s.E, "Young's modulus (checked only: weights represent psi/E)");
   s.make->add_option("--finetune-steps", s.finetune, "L-BFGS steps after decoding (0: none)")
       ->check(CLI::Range(0, 100000));
+  s.make
+      ->add_option("--candidates", s.candidates,
+                   "DDPM samples drawn; the one with the lowest loss on the true law is kept")
+      ->check(CLI::Range(1, 1000));
   s.make->add_option("--generator", s.generator,
                      "Generator file (default: inputs/models/generator.h5)");
   s.make->add_option("--seed", s.seed, "Sampling seed");
@@ -162,7 +171,7 @@ int NeuralCommands::run() const {
     const std::string path =
         s.generator.empty() ? neural_train::default_generator_path() : s.generator;
     const neural::NeuralMtlWeights w =
-        neural_train::generate_material(s.law, s.nu, s.E, path, s.finetune, s.seed);
+        neural_train::generate_material(s.law, s.nu, s.E, path, s.finetune, s.seed, s.candidates);
     neural::write_weights(s.out, w);
     log::info("{} nu = {} from {} ({}); wrote {}", s.law, s.nu, path, w.source, s.out);
     print_metrics(neural_train::evaluate_fit(w, neural_train::heldout_deformations()));
@@ -189,12 +198,19 @@ int NeuralCommands::run() const {
   g.seed = s.seed;
   g.ae_steps = s.ae_steps;
   g.ddpm_steps = s.ddpm_steps;
+  g.ae_latent_noise = s.ae_noise;
+  g.ddpm_hidden = s.ddpm_hidden;
   neural_train::GeneratorReport r;
   neural_train::train_generator(data, g, s.gen_out, &r);
   log::info(
       "wrote {}: autoencoder {:.0f} s (RMS reconstruction {:.2e} std), DDPM {:.0f} s (final "
       "loss {:.3e}), {} stored values",
       s.gen_out, r.ae_seconds, r.ae_rms, r.ddpm_seconds, r.ddpm_loss, r.bytes);
+  const auto c = neural_train::check_generator(neural_train::Generator::load(s.gen_out), data);
+  log::info(
+      "energy correlation over the dataset's conditions: autoencoder round trip min {:.4f} "
+      "median {:.4f}; DDPM samples min {:.4f} median {:.4f}",
+      c.ae_min, c.ae_median, c.sample_min, c.sample_median);
   return 0;
 #endif
 }

@@ -10,7 +10,7 @@
 namespace gen4d::neural_train {
 
 //! Default steps of fine-tuning (L-BFGS iterations) after decoding.
-inline constexpr int kDefaultFinetuneSteps = 100;
+inline constexpr int kDefaultFinetuneSteps = 200;
 
 //! The generator used when none is named: $GEN4D_GENERATOR if set, else inputs/models/
 //! generator.h5 of the source tree this build was configured from, else the installed copy
@@ -18,15 +18,21 @@ inline constexpr int kDefaultFinetuneSteps = 100;
 //! source-tree path when none does (so the error names a sensible file).
 std::string default_generator_path();
 
-//! DDPM sampling (deterministic for `seed`) -> decoding -> `finetune_steps` L-BFGS steps on
-//! the true law. Source "generator+finetune", or "generator" with 0 steps; fit_error is the
-//! held-out RMS log-energy error. youngs_modulus is validated (> 0) but does not change the
+//! Default number of DDPM samples drawn per material, of which the one with the lowest
+//! training loss on the true law is kept.
+inline constexpr int kDefaultCandidates = 4;
+
+//! DDPM sampling (deterministic for `seed`) of `candidates` networks -> decoding -> the one with
+//! the lowest training loss on 2048 deformations of the true law -> `finetune_steps` L-BFGS
+//! steps on the true law. Source "generator+finetune", or "generator" with 0 steps; fit_error is
+//! the held-out RMS log-energy error. youngs_modulus is validated (> 0) but does not change the
 //! weights: they represent psi/E. InputError on a bad law, nu outside [0, 0.5), E <= 0, or an
 //! unreadable generator (naming the file).
 neural::NeuralMtlWeights generate_material(const std::string& law, double nu, double youngs_modulus,
                                            const std::string& generator_path,
                                            int finetune_steps = kDefaultFinetuneSteps,
-                                           std::uint64_t seed = 1);
+                                           std::uint64_t seed = 1,
+                                           int candidates = kDefaultCandidates);
 
 //! File name under `cache_dir` for the network of (law, nu) from `generator_path` with these
 //! settings: law, nu (to 1e-6), steps, seed and a hash of the generator file's size and

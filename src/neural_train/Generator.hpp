@@ -59,8 +59,8 @@ WeightDataset read_dataset(const std::string& path);
 struct GeneratorOptions {
   int latent = 64;
   int ae_hidden = 128;
-  int ae_steps = 4000;
-  double ae_latent_noise = 0.01;  //!< latent noise while training the decoder (robustness)
+  int ae_steps = 8000;
+  double ae_latent_noise = 0.002;  //!< latent noise while training the decoder (robustness)
   int ddpm_hidden = 128;
   int ddpm_steps = 20000;
   int ddpm_batch = 128;
@@ -75,6 +75,15 @@ struct GeneratorReport {
   double ddpm_loss = 0;   //!< final epsilon MSE (mean of the last 500 steps)
   std::size_t bytes = 0;  //!< parameters stored, in doubles
 };
+
+//! Energy correlation (held-out deformations) of the dataset's networks after the AE round
+//! trip, and of DDPM samples at the dataset's own conditions: min and median over the set.
+struct GeneratorCheck {
+  double ae_min = 0, ae_median = 0, sample_min = 0, sample_median = 0;
+};
+class Generator;
+GeneratorCheck check_generator(const Generator& g, const WeightDataset& data,
+                               std::uint64_t seed = 1);
 
 //! Trains AE then DDPM on `data` and writes the generator to `out` (one ArrayFile).
 void train_generator(const WeightDataset& data, const GeneratorOptions& options,

@@ -278,6 +278,17 @@ FitMetrics evaluate_fit(const neural::NeuralMtlWeights& w, const std::vector<dou
   return m;
 }
 
+double training_loss(const neural::NeuralMtlWeights& w, const std::vector<double>& sigma,
+                     double stress_weight) {
+  detail::apply_threads();
+  const int li = neural::law_index(w.law, "training_loss");
+  Batch b;
+  b.sigma = detail::from_vector(sigma, static_cast<long>(sigma.size() / 3), 3);
+  truth(li, w.poisson_ratio, b.sigma, b.psi, b.grad);
+  const TorchMlp mlp = TorchMlp::from_weights(w, false);
+  return loss_terms(mlp, b.sigma, b.psi, b.grad, stress_weight, false).item<double>();
+}
+
 neural::NeuralMtlWeights train_material(const std::string& law, double nu, const TrainOptions& o,
                                         const neural::NeuralMtlWeights* warm_start,
                                         TrainReport* report) {

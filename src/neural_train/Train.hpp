@@ -39,6 +39,10 @@ void torch_law_energy(int law, double nu, std::size_t n, const double* sigma, do
 void torch_forward(const neural::NeuralMtlWeights& w, std::size_t n, const double* sigma,
                    double* psi, double* grad, double* strain);
 
+struct TrainDefaults {
+  static constexpr double stress_weight = 0.02;
+};
+
 //! Accuracy of a network on held-out deformations.
 struct FitMetrics {
   double correlation = 0;    //!< Pearson correlation of psi_N with psi over all samples
@@ -53,6 +57,11 @@ struct FitMetrics {
 //! Evaluates with the LibTorch forward pass. `sigma` from sample_deformations().
 FitMetrics evaluate_fit(const neural::NeuralMtlWeights& w, const std::vector<double>& sigma);
 
+//! The training objective (Eq. 9 log penalty + stress_weight x relative stress term) of `w` on
+//! the deformations `sigma` (no gradient kept).
+double training_loss(const neural::NeuralMtlWeights& w, const std::vector<double>& sigma,
+                     double stress_weight = TrainDefaults::stress_weight);
+
 //! The held-out deformations every report uses (its own seed, never a training seed).
 const std::vector<double>& heldout_deformations();
 
@@ -62,7 +71,7 @@ struct TrainOptions {
   int lbfgs_steps = 150;  //!< L-BFGS iterations after Adam (0: none)
   int batch = 4096;       //!< training samples (fixed set, redrawn every 500 Adam steps)
   double learning_rate = 3e-3;
-  double stress_weight = 0.02;  //!< weight of the relative stress term
+  double stress_weight = TrainDefaults::stress_weight;  //!< weight of the stress term
   std::uint64_t seed = 1;
   bool progress = false;  //!< progress lines (iteration, loss, ETA) through gen4d::log
   std::string label;      //!< prefix of the progress lines
