@@ -40,8 +40,8 @@ struct NeuralCommands::State {
   std::uint64_t seed = 1;
   // train-generator
   std::string gen_out = "inputs/models/generator.h5", dataset;
-  int nu_count = 25, ae_steps = 8000, ddpm_steps = 20000, ddpm_hidden = 128;
-  double ae_noise = 0.002;
+  int nu_count = 25, ae_steps = 4000, ddpm_steps = 30000, ddpm_hidden = 192;
+  double ae_noise = 0.01;
 };
 
 NeuralCommands::NeuralCommands(CLI::App& app) : s_(std::make_unique<State>()) {

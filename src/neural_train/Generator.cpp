@@ -7,7 +7,7 @@
 // spread, and the whole generator stays under 3 MB in float64. The denoiser is an MLP on
 // [z_t, sinusoidal embedding of t, condition] rather than the seed's 2D conv net: the latent
 // vector has no spatial structure for convolutions to exploit (the seed views it as a
-// 1-channel image only to reuse an image U-Net), and an MLP of width 128 fits the
+// 1-channel image only to reuse an image U-Net), and an MLP of width 192 fits the
 // delta-like conditional distribution (one network per condition) in a few minutes of CPU time.
 #include "neural_train/Generator.hpp"
 

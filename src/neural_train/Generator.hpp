@@ -59,10 +59,10 @@ WeightDataset read_dataset(const std::string& path);
 struct GeneratorOptions {
   int latent = 64;
   int ae_hidden = 128;
-  int ae_steps = 8000;
-  double ae_latent_noise = 0.002;  //!< latent noise while training the decoder (robustness)
-  int ddpm_hidden = 128;
-  int ddpm_steps = 20000;
+  int ae_steps = 4000;
+  double ae_latent_noise = 0.01;  //!< latent noise while training the decoder (robustness)
+  int ddpm_hidden = 192;
+  int ddpm_steps = 30000;
   int ddpm_batch = 128;
   int timesteps = 200;  //!< T, cosine schedule
   std::uint64_t seed = 1;
