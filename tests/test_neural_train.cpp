@@ -28,7 +28,7 @@ std::string scratch(const std::string& name) {
   const fs::path d = fs::path(GEN4D_BINARY_DIR) / "tests" / "scratch" / "neural_train";
   fs::create_directories(d);
   const fs::path p = d / name;
-  fs::remove(p);
+  fs::remove_all(p);
   return p.string();
 }
 
