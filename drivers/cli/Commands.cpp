@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "DefaultDeck.hpp"
+#include "cli/NeuralCommands.hpp"
 #include "core/BuildInfo.hpp"
 #include "core/Deck.hpp"
 #include "core/Error.hpp"
@@ -267,7 +268,10 @@ int dispatch(int argc, char** argv) {
                     "unless --frames is given)");
   preview->add_option("--fps", pv_fps, "Frame rate of the --mp4 video")->check(CLI::Range(1, 240));
 
+  const NeuralCommands neural(app);
+
   app.parse(argc, argv);
+  if (const int code = neural.run(); code >= 0) return code;
   if (*run) return cmd_run(ra);
   if (*restart) return cmd_restart(ckpt, rs_out, rs_sets);
   if (*info) return cmd_info();
