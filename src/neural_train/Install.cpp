@@ -11,7 +11,8 @@ namespace gen4d::neural_train {
 std::string default_cache_dir() {
   namespace fs = std::filesystem;
   if (const char* d = std::getenv("GEN4D_CACHE_DIR"); d && *d) return d;
-  if (const char* d = std::getenv("XDG_CACHE_HOME"); d && *d) return (fs::path(d) / "gen4d").string();
+  if (const char* d = std::getenv("XDG_CACHE_HOME"); d && *d)
+    return (fs::path(d) / "gen4d").string();
   if (const char* d = std::getenv("HOME"); d && *d)
     return (fs::path(d) / ".cache" / "gen4d").string();
   return ".gen4d-cache";
