@@ -13,6 +13,19 @@ if(TARGET validate_cantilever)
   endforeach()
 endif()
 
+# NeuralMTL twin: the same cantilever with the shipped Neo-Hookean network beside the analytic
+# target, both within 2 % of Newton (full run over 3 laws x 3 nu: validate_cantilever --neural).
+if(TARGET validate_cantilever)
+  foreach(np 1 2)
+    add_test(NAME validate_cantilever_neural_quick_np${np}
+             COMMAND ${MPIEXEC_EXECUTABLE} ${MPIEXEC_NUMPROC_FLAG} ${np} --oversubscribe
+                     $<TARGET_FILE:validate_cantilever> --steps 20 --neural --models neo_hookean
+                     --nus 0.3 --weights ${CMAKE_SOURCE_DIR}/inputs/models/mtl/{model}_{nu}.h5)
+    set_tests_properties(validate_cantilever_neural_quick_np${np} PROPERTIES
+                         ENVIRONMENT "${GEN4D_TEST_ENV}" PROCESSORS ${np} TIMEOUT 600)
+  endforeach()
+endif()
+
 # Small twin of the kernel benchmark: it must run and print its JSON at 1 and 2 ranks.
 if(TARGET bench_elastogen)
   foreach(np 1 2)

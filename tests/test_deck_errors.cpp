@@ -310,5 +310,19 @@ TEST(DeckErrors, EmbeddedSourceName) {
   }
 }
 
+TEST(DeckErrors, NeuralMaterialKeys) {
+  auto e = edit("density = 1000", "density = 1000\nneural_weights = \"mtl.h5\"");
+  expect_error("neural_not_neural.toml", e.text, e.line + 1, "material.neural_weights",
+               "only applies to target = \"neural\"");
+  auto f = edit("target = \"arap\"", "target = \"neural\"\nneural_weights = \"nowhere.h5\"");
+  expect_error("neural_missing.toml", f.text, f.line + 1, "material.neural_weights",
+               "file not found");
+  const std::string g =
+      replace_line(replace_line(kFullDeck, "target = \"arap\"", "target = \"neural\""),
+                   "model = \"corotated\"", "model = \"linear\"");
+  expect_error("neural_linear.toml", g, line_of(kFullDeck, "model = \"corotated\""),
+               "material.model", "needs a hyperelastic law");
+}
+
 }  // namespace
 }  // namespace gen4d::test

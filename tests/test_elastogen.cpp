@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "core/Error.hpp"
 #include "elastogen_test_util.hpp"
 #include "io/Checkpoint.hpp"
 
@@ -149,6 +150,56 @@ TEST(Elastogen, ChebyshevTrajectoryIsBitIdenticalAcrossRankCounts) {
                                     {std::string("solver.relaxation=") + relaxation,
                                      "solver.chebyshev_ratio=0", "solver.accuracy_tolerance=1e-3"}),
                          3);
+}
+
+// NeuralMTL targets (material.target = "neural") with the shipped Neo-Hookean network.
+std::vector<std::string> neural_sets(std::vector<std::string> sets = {}) {
+  sets.push_back("material.target=neural");
+  sets.push_back(std::string("material.neural_weights=") + GEN4D_SOURCE_DIR +
+                 "/inputs/models/mtl/neo_hookean_0.30.h5");
+  return sets;
+}
+
+TEST(Elastogen, NeuralTrajectoryIsBitIdenticalAcrossRankCounts) {
+  // The network is broadcast from rank 0 and each voxel's 8 points go through the same
+  // kernel whatever rank owns it.
+  expect_bit_identical(
+      parse_deck(kCantileverDeck, "<cantilever>", ".", neural_sets({"simulation.end_time=0.05"})),
+      5);
+}
+
+TEST(Elastogen, NeuralBodyAtRestStaysAtRest) {
+  // The activation makes the neural strain, energy and stress exactly zero at sigma = 1, so
+  // a body without load only sees the round-off of F = G x at its rest positions (~1e-16);
+  // without the activation's rest shift it would start from stresses of order E.
+  const Config cfg = parse_deck(kCantileverDeck, "<cantilever>", ".",
+                                neural_sets({"simulation.gravity=[0.0, 0.0, 0.0]"}));
+  elastogen::Simulation sim(MPI_COMM_WORLD, cfg);
+  const auto x0 = test::gather_positions(sim);
+  for (int s = 0; s < 3; ++s) sim.dynamics().step(s * cfg.dt);
+  const auto x = test::gather_positions(sim);
+  if (test::world_rank() == 0) {
+    ASSERT_EQ(x.size(), x0.size());
+    double moved = 0;
+    for (std::size_t i = 0; i < x.size(); ++i) moved = std::max(moved, std::fabs(x[i] - x0[i]));
+    EXPECT_LT(moved, 1e-12);
+  }
+}
+
+TEST(Elastogen, NeuralWeightsForAnotherMaterialAreRejected) {
+  // The shipped file is Neo-Hookean at nu = 0.3; asking for StVK or nu = 0.4 must fail clearly.
+  for (const std::string& set :
+       {std::string("material.model=stvk"), std::string("material.poisson_ratio=0.4")}) {
+    const Config cfg = parse_deck(kCantileverDeck, "<cantilever>", ".", neural_sets({set}));
+    try {
+      elastogen::Simulation sim(MPI_COMM_WORLD, cfg);
+      ADD_FAILURE() << set << " was accepted";
+    } catch (const InputError& e) {
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find("neo_hookean_0.30.h5"), std::string::npos) << msg;
+      EXPECT_NE(msg.find("fitted for neo_hookean with nu = 0.3"), std::string::npos) << msg;
+    }
+  }
 }
 
 TEST(Elastogen, FreeWobbleEnergyNeverIncreases) {

@@ -20,6 +20,9 @@
 #include "cli/Commands.hpp"
 #include "core/Error.hpp"
 #include "core/Log.hpp"
+#ifdef GEN4D_WITH_TORCH
+#include "neural_train/Install.hpp"
+#endif
 
 namespace {
 // One line for the user, the same on every rank, printed once.
@@ -39,6 +42,9 @@ int main(int argc, char** argv) {
   PetscOptionsSetValue(nullptr, "-no_signal_handler", nullptr);
   PetscOptionsSetValue(nullptr, "-options_left", "0");
   PetscInitializeNoArguments();
+#ifdef GEN4D_WITH_TORCH
+  gen4d::neural_train::install_weight_generator();  // target "neural" without a weight file
+#endif
 
   int code = 0;
   try {

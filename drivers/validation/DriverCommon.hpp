@@ -13,6 +13,9 @@
 #include "core/Error.hpp"
 #include "core/Log.hpp"
 #include "elastogen/Simulation.hpp"
+#ifdef GEN4D_WITH_TORCH
+#include "neural_train/Install.hpp"
+#endif
 
 namespace gen4d::driver {
 
@@ -27,6 +30,9 @@ inline int main_with(int argc, char** argv, const char* description,
   log::set_rank(rank);
   PetscOptionsSetValue(nullptr, "-no_signal_handler", nullptr);
   PetscInitializeNoArguments();
+#ifdef GEN4D_WITH_TORCH
+  neural_train::install_weight_generator();  // decks with target "neural" and no weight file
+#endif
   CLI::App app{description};
   setup(app);
   int code = 0;

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Plot the tip trajectories written by validate_cantilever --csv (one panel per material)."""
+"""Plot the tip trajectories written by validate_cantilever --csv (one panel per material);
+with --neural runs, NeuralMTL targets appear as crosses beside the analytic-target dots."""
 import csv
 import sys
 from collections import defaultdict
@@ -28,6 +29,9 @@ def main():
             line, = ax.plot(t, [float(r["z_newton"]) - z0 for r in rs], label=f"Newton nu={nu}")
             ax.plot(t, [float(r["z_elastogen"]) - z0 for r in rs], "o", ms=3,
                     color=line.get_color(), label=f"ElastoGen nu={nu}")
+            if "z_neural" in rs[0]:
+                ax.plot(t[::4], [float(r["z_neural"]) - z0 for r in rs][::4], "x", ms=5,
+                        color=line.get_color(), label=f"ElastoGen NeuralMTL nu={nu}")
         ax.set_title(model)
         ax.set_xlabel("time [s]")
         ax.grid(alpha=0.3)

@@ -39,10 +39,12 @@ struct GeometryConfig {
 
 struct MaterialConfig {
   std::string model = "corotated";  //!< registered material name
-  std::string target = "arap";      //!< "arap" (p = R) | "analytic" (p = F - P/k)
-  double youngs_modulus = 0;        //!< Pa
-  double poisson_ratio = 0;         //!< (-1, 0.5)
-  double density = 0;               //!< kg/m^3
+  std::string target = "arap";      //!< "arap" (p = R) | "analytic" (p = F - P/k) | "neural"
+  //! NeuralMTL weight file for target "neural" (absolute); empty: generated from the law and nu
+  std::string neural_weights;
+  double youngs_modulus = 0;  //!< Pa
+  double poisson_ratio = 0;   //!< (-1, 0.5)
+  double density = 0;         //!< kg/m^3
 };
 
 struct SolverConfig {

@@ -203,9 +203,25 @@ void read_geometries(toml::table& root, const Locator& loc, const fs::path& base
   }
 }
 
-void read_material(const Section& s, MaterialConfig& m) {
+void read_material(Section& s, MaterialConfig& m, const fs::path& base_dir) {
   m.model = s.choice("model", m.model, {"corotated", "neo_hookean", "stvk", "linear"});
-  m.target = s.choice("target", m.target, {"analytic", "arap"});
+  m.target = s.choice("target", m.target, {"analytic", "arap", "neural"});
+  if (m.target == "neural") {
+    s.check(m.model != "linear", "model",
+            "target = \"neural\" needs a hyperelastic law (corotated, neo_hookean or stvk)");
+    if (s.has("neural_weights")) {
+      const std::string file = s.string("neural_weights");
+      s.check(!file.empty(), "neural_weights", "must not be empty (leave it out to generate)");
+      const fs::path path = fs::absolute(base_dir / fs::path(file)).lexically_normal();
+      std::error_code ec;
+      s.check(fs::is_regular_file(path, ec), "neural_weights",
+              fmt::format("file not found: {}", path.string()));
+      s.replace("neural_weights", path.string());
+      m.neural_weights = path.string();
+    }
+  } else {
+    s.check(!s.has("neural_weights"), "neural_weights", "only applies to target = \"neural\"");
+  }
   m.youngs_modulus = s.number("youngs_modulus");
   require_positive(s, "youngs_modulus", m.youngs_modulus);
   m.poisson_ratio = s.number("poisson_ratio");
@@ -425,7 +441,10 @@ Config parse_deck(const std::string& text, const std::string& source_name,
   read_simulation(table_section(root, "simulation", loc), c);
   read_domain(table_section(root, "domain", loc), c);
   read_geometries(root, loc, fs::path(base_dir.empty() ? "." : base_dir), c);
-  read_material(table_section(root, "material", loc), c.material);
+  {
+    Section material = table_section(root, "material", loc);
+    read_material(material, c.material, fs::path(base_dir.empty() ? "." : base_dir));
+  }
   read_solver(table_section(root, "solver", loc), c.solver);
   for (const Section& s : array_sections(root, "fixed", loc)) c.fixed.push_back(read_fixed(s));
   for (const Section& s : array_sections(root, "kinematic", loc))

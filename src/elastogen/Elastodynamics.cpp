@@ -9,6 +9,7 @@
 #include "materials/LinearElastic.hpp"
 #include "materials/NeoHookean.hpp"
 #include "materials/StVK.hpp"
+#include "neural/WeightSource.hpp"
 
 namespace gen4d::elastogen {
 
@@ -26,16 +27,47 @@ auto stress_of(const Material& mat) {
   };
 }
 
-//! Calls f with the pointwise material the deck selects (ARAP for target "arap"); the
-//! runtime name picks one template instantiation of the stencil loop.
+//! NeuralMTL evaluates the eight quadrature points of a voxel in one batch (the stencil
+//! prefers the three-argument form), or one point at a time.
+struct NeuralStress {
+  neural::NeuralMaterial mat;
+  double operator()(const double* F, double* P, int count) const {
+    return mat.energy_and_pk1_cell(F, P, count);
+  }
+  double operator()(const double* F, double* P) const { return mat.energy_and_pk1_cell(F, P, 1); }
+};
+NeuralStress stress_of(const neural::NeuralMaterial& mat) {
+  return NeuralStress{mat};
+}
+
+//! Calls f with the true law of the deck (target "analytic" and the reference solver).
 template <class F>
-auto with_material(const MaterialConfig& m, F&& f) {
+auto with_law(const MaterialConfig& m, F&& f) {
   const double E = m.youngs_modulus, nu = m.poisson_ratio;
-  if (m.target == "arap") return f(materials::Arap::from_young_poisson(E, nu));
   if (m.model == "neo_hookean") return f(materials::NeoHookean::from_young_poisson(E, nu));
   if (m.model == "stvk") return f(materials::StVK::from_young_poisson(E, nu));
   if (m.model == "linear") return f(materials::LinearElastic::from_young_poisson(E, nu));
   return f(materials::FixedCorotated::from_young_poisson(E, nu));
+}
+
+//! Calls f with the pointwise material the deck selects (ARAP for target "arap", NeuralMTL
+//! with the true law's local weight k for "neural"); the runtime name picks one template
+//! instantiation of the stencil loop.
+template <class F>
+auto with_material(const MaterialConfig& m, const neural::NeuralMtl* net, F&& f) {
+  const double E = m.youngs_modulus, nu = m.poisson_ratio;
+  if (m.target == "arap") return f(materials::Arap::from_young_poisson(E, nu));
+  if (m.target == "neural") {
+    const double k = with_law(m, [](const auto& law) { return law.projection_stiffness(); });
+    return f(neural::NeuralMaterial{net, E, k});
+  }
+  return with_law(m, f);
+}
+
+std::unique_ptr<neural::NeuralMtl> network_for(const VoxelSystem& sys, const MaterialConfig& m) {
+  if (m.target != "neural") return nullptr;
+  return neural::load_network(sys.grid().comm(), m.neural_weights, m.model, m.poisson_ratio,
+                              m.youngs_modulus);
 }
 }  // namespace
 
@@ -43,16 +75,23 @@ Elastodynamics::Elastodynamics(VoxelSystem& sys, const Config& cfg, PhaseTimers&
     : sys_(sys),
       cfg_(cfg),
       timers_(timers),
+      net_(network_for(sys, cfg.material)),
       dt_(cfg.dt),
-      k_(with_material(cfg.material, [](const auto& m) { return m.projection_stiffness(); })),
+      k_(with_material(cfg.material, net_.get(),
+                       [](const auto& m) { return m.projection_stiffness(); })),
       solver_(sys, cfg.solver, k_, cfg.dt, timers),
       anderson_(cfg.solver.anderson_depth, sys, solver_.reducer()) {
   if (cfg.solver.method == "newton") {
+    // The reference solver always uses the true law, also when ElastoGen uses NeuralMTL.
     NewtonReference::Stress stress;
-    with_material(cfg.material, [&](const auto& m) {
+    const auto pointwise = [&](const auto& m) {
       stress = stress_of(m);
       return 0.0;
-    });
+    };
+    if (cfg.material.target == "neural")
+      with_law(cfg.material, pointwise);
+    else
+      with_material(cfg.material, nullptr, pointwise);
     newton_ = std::make_unique<NewtonReference>(sys, std::move(stress), cfg.dt, timers);
   }
   const std::size_t n = 3 * sys_.ghosted().size();
@@ -246,7 +285,7 @@ void Elastodynamics::external_forces(double t, std::vector<double>& f) const {
 parallel::ExactSum Elastodynamics::internal_forces(const std::vector<double>& x,
                                                    std::vector<double>& f) {
   // The runtime choice of local model picks one instantiation of the stencil loop.
-  return with_material(cfg_.material, [&](const auto& m) {
+  return with_material(cfg_.material, net_.get(), [&](const auto& m) {
     return sys_.internal_forces(stress_of(m), x.data(), f.data());
   });
 }

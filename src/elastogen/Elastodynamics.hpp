@@ -14,6 +14,7 @@
 #include "elastogen/GlobalSolver.hpp"
 #include "elastogen/NewtonReference.hpp"
 #include "elastogen/VoxelSystem.hpp"
+#include "neural/NeuralMtl.hpp"
 
 namespace gen4d::elastogen {
 
@@ -71,6 +72,7 @@ class Elastodynamics {
   VoxelSystem& sys_;
   const Config& cfg_;
   PhaseTimers& timers_;
+  std::unique_ptr<neural::NeuralMtl> net_;  //!< set for material.target = "neural"
   double dt_, k_;
   GlobalSolver solver_;
   AndersonMixer anderson_;

@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include "core/Config.hpp"
@@ -125,11 +126,19 @@ parallel::ExactSum VoxelSystem::internal_forces(const StressFn& stress, const do
         for (int m = 0; m < 8; ++m)
           for (int a = 0; a < 3; ++a) xe[m][a] = x[3 * (base + corner_offset_[m]) + a];
         double psi = 0;
-        for (int q = 0; q < 8; ++q) {
-          double F[9], P[9];
-          deformation_gradient(s, q, xe, inv_h, F);
-          psi += stress(F, P);
-          add_node_forces(s, q, P, w * inv_h, fe);
+        if constexpr (std::is_invocable_r_v<double, const StressFn&, const double*, double*, int>) {
+          // Batched material (NeuralMTL): all eight quadrature points in one call.
+          double F[8][9], P[8][9];
+          for (int q = 0; q < 8; ++q) deformation_gradient(s, q, xe, inv_h, F[q]);
+          psi = stress(&F[0][0], &P[0][0], 8);
+          for (int q = 0; q < 8; ++q) add_node_forces(s, q, P[q], w * inv_h, fe);
+        } else {
+          for (int q = 0; q < 8; ++q) {
+            double F[9], P[9];
+            deformation_gradient(s, q, xe, inv_h, F);
+            psi += stress(F, P);
+            add_node_forces(s, q, P, w * inv_h, fe);
+          }
         }
         if (oc.contains(ci, cj, ck)) energy.add(w * psi);
         double* dst = &cell_forces_[24 * c];

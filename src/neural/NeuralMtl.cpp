@@ -13,6 +13,12 @@
 #include "materials/Svd3.hpp"
 #include "neural/ArrayFile.hpp"
 
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define GEN4D_KERNEL_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define GEN4D_KERNEL_CLONES
+#endif
+
 namespace gen4d::neural {
 namespace {
 
@@ -246,47 +252,71 @@ NeuralMtlWeights read_weights(const std::string& path) {
 NeuralMtl::NeuralMtl(const NeuralMtlWeights& w) : law_(w.law), nu_(w.poisson_ratio) {
   w.validate("NeuralMTL weights");
   layers_ = static_cast<int>(w.layers.size());
-  width_[0] = 3;
+  // Widths are padded to multiples of kBlock with zero weights and biases: a padded unit
+  // computes tanh(0) = 0 and feeds nothing forward or back, so results are unchanged while
+  // every loop runs over whole register blocks.
+  auto padded = [](int n) { return (n + kBlock - 1) / kBlock * kBlock; };
+  width_[0] = padded(3);
   for (int l = 0; l < layers_; ++l) {
     const Layer& L = w.layers[l];
-    width_[l + 1] = L.out;
-    W_[l] = L.W;
-    b_[l] = L.b;
-    Wt_[l].resize(L.W.size());
-    for (int j = 0; j < L.out; ++j)
-      for (int i = 0; i < L.in; ++i)
-        Wt_[l][static_cast<std::size_t>(i) * L.out + j] = L.W[j * L.in + i];
+    const int in = width_[l], out = padded(L.out);
+    width_[l + 1] = out;
+    W_[l].assign(static_cast<std::size_t>(out) * in, 0.0);
+    Wt_[l].assign(static_cast<std::size_t>(out) * in, 0.0);
+    b_[l].assign(out, 0.0);
+    for (int j = 0; j < L.out; ++j) {
+      b_[l][j] = L.b[j];
+      for (int i = 0; i < L.in; ++i) {
+        W_[l][static_cast<std::size_t>(j) * in + i] = L.W[j * L.in + i];
+        Wt_[l][static_cast<std::size_t>(i) * out + j] = L.W[j * L.in + i];
+      }
+    }
   }
   // Activation: subtract the raw output at rest, computed by the same arithmetic, so the
   // strain, energy and stress at rest are exactly zero.
   const double rest[3] = {1.0, 1.0, 1.0};
-  lanes<false>(1, rest, nullptr, nullptr, m0_.data());
+  strain(1, rest, m0_.data());  // through the same clone as every later call
 }
 
+namespace {
+//! out[j][p] = bias[j] + sum_i M[j * in + i] x[i][p] for j < out (a multiple of kBlock):
+//! kBlock rows at a time so each loaded x[i] feeds kBlock x kLanes multiply-adds.
+template <int Block, int L>
+__attribute__((always_inline)) inline void dense(int in, int out, const double* M,
+                                                 const double* bias, const double (*x)[L],
+                                                 double (*y)[L]) {
+  for (int j0 = 0; j0 < out; j0 += Block) {
+    alignas(64) double acc[Block][L];
+    for (int r = 0; r < Block; ++r)
+      for (int p = 0; p < L; ++p) acc[r][p] = bias ? bias[j0 + r] : 0.0;
+    for (int i = 0; i < in; ++i)
+      for (int r = 0; r < Block; ++r) {
+        const double w = M[(j0 + r) * in + i];
+        for (int p = 0; p < L; ++p) acc[r][p] += w * x[i][p];
+      }
+    for (int r = 0; r < Block; ++r)
+      for (int p = 0; p < L; ++p) y[j0 + r][p] = acc[r][p];
+  }
+}
+}  // namespace
+
 template <bool Backward>
-void NeuralMtl::lanes(int count, const double* sigma, double* psi, double* dpsi,
-                      double* strain) const {
+__attribute__((always_inline)) inline void NeuralMtl::lanes(int count, const double* sigma,
+                                                            double* psi, double* dpsi,
+                                                            double* strain) const {
   constexpr int L = kLanes;
   alignas(64) double h[kMaxLayers + 1][kMaxWidth][L];  // post-activation values per layer
-  for (int a = 0; a < 3; ++a)
-    for (int p = 0; p < L; ++p) h[0][a][p] = p < count ? sigma[3 * p + a] - 1.0 : 0.0;
+  for (int a = 0; a < width_[0]; ++a)
+    for (int p = 0; p < L; ++p) h[0][a][p] = a < 3 && p < count ? sigma[3 * p + a] - 1.0 : 0.0;
   for (int l = 0; l < layers_; ++l) {
     const int in = width_[l], out = width_[l + 1];
-    const double* W = W_[l].data();
-    const double* b = b_[l].data();
-    const bool last = l == layers_ - 1;
-    for (int j = 0; j < out; ++j) {
-      alignas(64) double acc[L];
-      for (int p = 0; p < L; ++p) acc[p] = b[j];
-      for (int i = 0; i < in; ++i) {
-        const double w = W[j * in + i];
-        for (int p = 0; p < L; ++p) acc[p] += w * h[l][i][p];
-      }
-      if (last)
-        for (int p = 0; p < L; ++p) h[l + 1][j][p] = acc[p] - m0_[j];
-      else
-        for (int p = 0; p < L; ++p) h[l + 1][j][p] = tanh_lane(acc[p]);
-    }
+    dense<kBlock, L>(in, out, W_[l].data(), b_[l].data(), h[l], h[l + 1]);
+    if (l == layers_ - 1)
+      for (int j = 0; j < 3; ++j)
+        for (int p = 0; p < L; ++p) h[l + 1][j][p] -= m0_[j];
+    else
+      for (int j = 0; j < out; ++j)
+        for (int p = 0; p < L; ++p) h[l + 1][j][p] = tanh_lane(h[l + 1][j][p]);
   }
   const double(*n)[L] = h[layers_];
   if (strain)
@@ -296,32 +326,30 @@ void NeuralMtl::lanes(int count, const double* sigma, double* psi, double* dpsi,
     for (int p = 0; p < count; ++p)
       psi[p] = 0.5 * (n[0][p] * n[0][p] + n[1][p] * n[1][p] + n[2][p] * n[2][p]);
   if constexpr (Backward) {
-    // Reverse pass of psi = |n|^2 / 2: g starts at n and goes back through each layer.
+    // Reverse pass of psi = |n|^2 / 2: g starts at n (padded entries 0) and goes back
+    // through each layer: g_in = W^T g_out, times tanh' = 1 - h^2 below the last layer.
     alignas(64) double g[2][kMaxWidth][L];
-    for (int a = 0; a < 3; ++a)
-      for (int p = 0; p < L; ++p) g[0][a][p] = n[a][p];
+    for (int a = 0; a < width_[layers_]; ++a)
+      for (int p = 0; p < L; ++p) g[0][a][p] = a < 3 ? n[a][p] : 0.0;
     int cur = 0;
     for (int l = layers_ - 1; l >= 0; --l) {
       const int in = width_[l], out = width_[l + 1];
-      const double* Wt = Wt_[l].data();
-      for (int i = 0; i < in; ++i) {
-        alignas(64) double acc[L] = {};
-        for (int j = 0; j < out; ++j) {
-          const double w = Wt[i * out + j];
-          for (int p = 0; p < L; ++p) acc[p] += w * g[cur][j][p];
-        }
-        if (l > 0)
-          for (int p = 0; p < L; ++p) acc[p] *= 1.0 - h[l][i][p] * h[l][i][p];
-        for (int p = 0; p < L; ++p) g[1 - cur][i][p] = acc[p];
-      }
+      dense<kBlock, L>(out, in, Wt_[l].data(), nullptr, g[cur], g[1 - cur]);
       cur = 1 - cur;
+      if (l > 0)
+        for (int i = 0; i < in; ++i)
+          for (int p = 0; p < L; ++p) g[cur][i][p] *= 1.0 - h[l][i][p] * h[l][i][p];
     }
     for (int p = 0; p < count; ++p)
       for (int a = 0; a < 3; ++a) dpsi[3 * p + a] = g[cur][a][p];
   }
 }
 
-void NeuralMtl::evaluate(std::size_t n, const double* sigma, double* psi, double* dpsi) const {
+// The batch loops are compiled twice: for x86-64-v3 (AVX2 + FMA), picked at load time where
+// the CPU has it, and for the baseline x86-64 (SSE2) everywhere else; lanes() is inlined into
+// each clone.
+GEN4D_KERNEL_CLONES void NeuralMtl::evaluate(std::size_t n, const double* sigma, double* psi,
+                                             double* dpsi) const {
   for (std::size_t s = 0; s < n; s += kLanes) {
     const int count = static_cast<int>(std::min<std::size_t>(kLanes, n - s));
     if (dpsi)
@@ -331,7 +359,7 @@ void NeuralMtl::evaluate(std::size_t n, const double* sigma, double* psi, double
   }
 }
 
-void NeuralMtl::strain(std::size_t n, const double* sigma, double* out) const {
+GEN4D_KERNEL_CLONES void NeuralMtl::strain(std::size_t n, const double* sigma, double* out) const {
   for (std::size_t s = 0; s < n; s += kLanes) {
     const int count = static_cast<int>(std::min<std::size_t>(kLanes, n - s));
     lanes<false>(count, sigma + 3 * s, nullptr, nullptr, out + 3 * s);
@@ -344,7 +372,7 @@ void NeuralMtl::strain(std::size_t n, const double* sigma, double* out) const {
 double NeuralMaterial::energy_and_pk1_cell(const double* F, double* P, int count) const {
   constexpr int L = NeuralMtl::kLanes;
   Mat3 U[L], V[L];
-  double sigma[3 * L], psi[L], grad[3 * L];
+  double sigma[3 * L] = {}, psi[L], grad[3 * L];
   for (int p = 0; p < count; ++p) {
     Mat3 Fm;
     std::memcpy(Fm.a, F + 9 * p, sizeof Fm.a);

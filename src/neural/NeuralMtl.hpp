@@ -75,6 +75,7 @@ NeuralMtlWeights read_weights(const std::string& path);
 class NeuralMtl {
  public:
   static constexpr int kLanes = 8;
+  static constexpr int kBlock = 4;  //!< output rows per register block
 
   explicit NeuralMtl(const NeuralMtlWeights& w);
 
@@ -95,7 +96,7 @@ class NeuralMtl {
   std::string law_;
   double nu_ = 0;
   int layers_ = 0;
-  std::array<int, kMaxLayers + 1> width_{};  // width_[0] = 3, width_[layers_] = 3
+  std::array<int, kMaxLayers + 1> width_{};  // padded to kBlock: 3 -> 4, 24 -> 24
   std::array<std::vector<double>, kMaxLayers> W_, Wt_, b_;
   std::array<double, 3> m0_{};  // raw output at rest, subtracted by the activation
 };

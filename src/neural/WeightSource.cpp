@@ -1,0 +1,94 @@
+#include "neural/WeightSource.hpp"
+
+#include <cmath>
+#include <exception>
+#include <vector>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "core/Error.hpp"
+#include "core/Log.hpp"
+
+namespace gen4d::neural {
+namespace {
+
+WeightGenerator& installed() {
+  static WeightGenerator generator;
+  return generator;
+}
+
+void broadcast_string(MPI_Comm comm, std::string& s) {
+  long n = static_cast<long>(s.size());
+  MPI_Bcast(&n, 1, MPI_LONG, 0, comm);
+  s.resize(static_cast<std::size_t>(n));
+  if (n) MPI_Bcast(s.data(), static_cast<int>(n), MPI_CHAR, 0, comm);
+}
+
+}  // namespace
+
+void set_weight_generator(WeightGenerator generator) {
+  installed() = std::move(generator);
+}
+
+std::unique_ptr<NeuralMtl> load_network(MPI_Comm comm, const std::string& file,
+                                        const std::string& law, double nu, double youngs_modulus) {
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  NeuralMtlWeights w;
+  std::string error;
+  std::string where = file.empty() ? "material.neural_weights (generated)" : file;
+  // Rank 0 reads or generates; the others receive the architecture and the flat weights, so
+  // every rank runs bit-identical networks.
+  std::vector<double> flat, meta;
+  if (rank == 0) {
+    try {
+      if (!file.empty()) {
+        w = read_weights(file);
+      } else {
+        if (!installed())
+          throw InputError(
+              "material.neural_weights: not set, and this gen4d was built without LibTorch, so "
+              "it cannot generate weights; run `gen4d make-material --law " +
+              law + " --nu " + fmt::format("{}", nu) +
+              " -o mtl.h5` on a LibTorch build and set material.neural_weights = \"mtl.h5\"");
+        log::info("generating NeuralMTL weights for {} nu = {} ...", law, nu);
+        w = installed()(law, nu, youngs_modulus);
+        w.validate(where);
+      }
+      if (w.law != law || std::fabs(w.poisson_ratio - nu) > 5e-4)
+        throw InputError(
+            fmt::format("{}: the weights were fitted for {} with nu = {}, but the deck asks for {} "
+                        "with nu = {}",
+                        where, w.law, w.poisson_ratio, law, nu));
+      flat = w.flatten();
+      for (int h : w.hidden()) meta.push_back(h);
+    } catch (const InputError& e) {
+      error = e.what();
+    } catch (const std::exception& e) {
+      error = where + ": " + e.what();
+    }
+  }
+  broadcast_string(comm, error);
+  if (!error.empty()) throw InputError(error);
+  long sizes[2] = {static_cast<long>(meta.size()), static_cast<long>(flat.size())};
+  MPI_Bcast(sizes, 2, MPI_LONG, 0, comm);
+  meta.resize(sizes[0]);
+  flat.resize(sizes[1]);
+  MPI_Bcast(meta.data(), static_cast<int>(sizes[0]), MPI_DOUBLE, 0, comm);
+  MPI_Bcast(flat.data(), static_cast<int>(sizes[1]), MPI_DOUBLE, 0, comm);
+  broadcast_string(comm, w.source);
+  if (rank != 0) {
+    std::vector<int> hidden(meta.begin(), meta.end());
+    w = NeuralMtlWeights::architecture(hidden);
+    w.law = law;
+    w.poisson_ratio = nu;
+    w.unflatten(flat);
+  }
+  if (rank == 0)
+    log::info("NeuralMTL: {} nu = {}, hidden {}, {} parameters, source {}", w.law, w.poisson_ratio,
+              fmt::join(w.hidden(), "x"), w.parameter_count(), w.source.empty() ? "?" : w.source);
+  return std::make_unique<NeuralMtl>(w);
+}
+
+}  // namespace gen4d::neural
