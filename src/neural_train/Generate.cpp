@@ -80,8 +80,8 @@ std::string material_cache_path(const std::string& cache_dir, const std::string&
                                                  std::to_string(ec ? 0 : size) + "|" +
                                                  std::to_string(ec ? 0 : mtime));
   const std::string name =
-      fmt::format("mtl_{}_nu{:.6f}_ft{}_s{}_{:08x}.h5", law, nu, finetune_steps, seed,
-                  static_cast<unsigned>(h & 0xffffffffu));
+      fmt::format("mtl_{}_nu{:.6f}_ft{}_c{}_s{}_{:08x}.h5", law, nu, finetune_steps,
+                  kDefaultCandidates, seed, static_cast<unsigned>(h & 0xffffffffu));
   return (fs::path(cache_dir) / name).string();
 }
 

@@ -35,8 +35,8 @@ neural::NeuralMtlWeights generate_material(const std::string& law, double nu, do
                                            int candidates = kDefaultCandidates);
 
 //! File name under `cache_dir` for the network of (law, nu) from `generator_path` with these
-//! settings: law, nu (to 1e-6), steps, seed and a hash of the generator file's size and
-//! modification time, so a regenerated generator never reuses stale networks.
+//! settings: law, nu (to 1e-6), steps, kDefaultCandidates, seed and a hash of the generator file's
+//! size and modification time, so a regenerated generator never reuses stale networks.
 std::string material_cache_path(const std::string& cache_dir, const std::string& law, double nu,
                                 const std::string& generator_path,
                                 int finetune_steps = kDefaultFinetuneSteps, std::uint64_t seed = 1);
