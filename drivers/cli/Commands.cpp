@@ -270,7 +270,11 @@ int dispatch(int argc, char** argv) {
 
   const NeuralCommands neural(app);
 
-  app.parse(argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::Success& e) {  // --help, --help-all, --version: print them (rank 0)
+    return rank_of(MPI_COMM_WORLD) == 0 ? app.exit(e) : 0;
+  }
   if (const int code = neural.run(); code >= 0) return code;
   if (*run) return cmd_run(ra);
   if (*restart) return cmd_restart(ckpt, rs_out, rs_sets);
