@@ -205,7 +205,7 @@ int NeuralCommands::run() const {
   log::info(
       "wrote {}: autoencoder {:.0f} s (RMS reconstruction {:.2e} std), DDPM {:.0f} s (final "
       "loss {:.3e}), {} stored values",
-      s.gen_out, r.ae_seconds, r.ae_rms, r.ddpm_seconds, r.ddpm_loss, r.bytes);
+      s.gen_out, r.ae_seconds, r.ae_rms, r.ddpm_seconds, r.ddpm_loss, r.values);
   const auto c = neural_train::check_generator(neural_train::Generator::load(s.gen_out), data);
   log::info(
       "energy correlation over the dataset's conditions: autoencoder round trip min {:.4f} "

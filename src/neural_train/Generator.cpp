@@ -3,12 +3,13 @@
 // Sizes against the seed's Table 3 (AE 8192..256 FC, latent 256, Conv2D U-Net denoiser):
 // our networks have 771 parameters (3-24-24-3), not ~8k, and the dataset is 75 networks
 // lying on three smooth curves (one per law, parameterised by nu), so a 771-128-64 FC encoder
-// (mirror decoder) and a 64-dimensional latent already reconstruct them to ~1e-3 of their
-// spread, and the whole generator stays under 3 MB in float64. The denoiser is an MLP on
-// [z_t, sinusoidal embedding of t, condition] rather than the seed's 2D conv net: the latent
-// vector has no spatial structure for convolutions to exploit (the seed views it as a
-// 1-channel image only to reuse an image U-Net), and an MLP of width 192 fits the
-// delta-like conditional distribution (one network per condition) in a few minutes of CPU time.
+// (mirror decoder) and a 64-dimensional latent already reconstruct them to ~2 % of their
+// spread per weight (energy correlation >= 0.9999 after the round trip), and the whole generator
+// stays under 3 MB in float64. The denoiser is an MLP on [z_t, sinusoidal embedding of t,
+// condition] rather than the seed's 2D conv net: the latent vector has no spatial structure for
+// convolutions to exploit (the seed views it as a 1-channel image only to reuse an image U-Net),
+// and an MLP of width 192 fits the delta-like conditional distribution (one network per condition)
+// in a few minutes of CPU time.
 #include "neural_train/Generator.hpp"
 
 #include <algorithm>
@@ -494,7 +495,7 @@ void train_generator(const WeightDataset& data, const GeneratorOptions& o, const
     report->ddpm_seconds = ddpm_seconds;
     report->ae_rms = ae_rms;
     report->ddpm_loss = ddpm_loss;
-    report->bytes = m.enc.values() + m.dec.values() + m.eps.values() + 2 * m.P + 2 * m.L + m.T;
+    report->values = m.enc.values() + m.dec.values() + m.eps.values() + 2 * m.P + 2 * m.L + m.T;
   }
 }
 

@@ -71,9 +71,9 @@ struct GeneratorOptions {
 
 struct GeneratorReport {
   double ae_seconds = 0, ddpm_seconds = 0;
-  double ae_rms = 0;      //!< RMS AE reconstruction error in normalised weight units
-  double ddpm_loss = 0;   //!< final epsilon MSE (mean of the last 500 steps)
-  std::size_t bytes = 0;  //!< parameters stored, in doubles
+  double ae_rms = 0;       //!< RMS AE reconstruction error in normalised weight units
+  double ddpm_loss = 0;    //!< final epsilon MSE (mean of the last 500 steps)
+  std::size_t values = 0;  //!< numbers stored (parameters, statistics, schedule)
 };
 
 //! Energy correlation (held-out deformations) of the dataset's networks after the AE round
