@@ -16,24 +16,15 @@
 #include "core/Error.hpp"
 #include "neural/ArrayFile.hpp"
 #include "neural/NeuralMtl.hpp"
+#include "neural_test_util.hpp"
 
 namespace gn = gen4d::neural;
 using gen4d::materials::Mat3;
 
 namespace {
 
-gn::NeuralMtlWeights random_weights(unsigned seed, std::vector<int> hidden = {24, 24}) {
-  gn::NeuralMtlWeights w = gn::NeuralMtlWeights::architecture(hidden);
-  w.law = "neo_hookean";
-  w.poisson_ratio = 0.3;
-  w.source = "test";
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> normal;
-  for (auto& L : w.layers) {
-    for (double& v : L.W) v = normal(rng) * 1.5 / std::sqrt(L.in);
-    for (double& v : L.b) v = 0.3 * normal(rng);
-  }
-  return w;
+gn::NeuralMtlWeights random_weights(unsigned seed, const std::vector<int>& hidden = {24, 24}) {
+  return gen4d::test::random_weights(seed, hidden);
 }
 
 // Textbook evaluation with std::tanh and no folding, for the kernel to match.

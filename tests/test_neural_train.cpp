@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/Error.hpp"
+#include "neural_test_util.hpp"
 #include "neural/ArrayFile.hpp"
 #include "neural/NeuralMtl.hpp"
 #include "neural_train/Generate.hpp"
@@ -37,16 +38,7 @@ double rel_diff(double a, double b, double floor) {
 }
 
 gn::NeuralMtlWeights random_weights(unsigned seed, const std::vector<int>& hidden) {
-  gn::NeuralMtlWeights w = gn::NeuralMtlWeights::architecture(hidden);
-  w.law = "stvk";
-  w.poisson_ratio = 0.2;
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> normal;
-  for (auto& L : w.layers) {
-    for (double& v : L.W) v = normal(rng) * 1.5 / std::sqrt(L.in);
-    for (double& v : L.b) v = 0.3 * normal(rng);
-  }
-  return w;
+  return gen4d::test::random_weights(seed, hidden, "stvk", 0.2);
 }
 
 // The tiny fit shared by the training and kernel tests (trained once).

@@ -64,14 +64,7 @@ struct Net {
     }
     return h;
   }
-  std::vector<torch::Tensor> parameters() const {
-    std::vector<torch::Tensor> p;
-    for (std::size_t l = 0; l < W.size(); ++l) {
-      p.push_back(W[l]);
-      p.push_back(b[l]);
-    }
-    return p;
-  }
+  std::vector<torch::Tensor> parameters() const { return detail::layer_parameters(W, b); }
   std::size_t values() const {
     std::size_t n = 0;
     for (auto& p : parameters()) n += static_cast<std::size_t>(p.numel());

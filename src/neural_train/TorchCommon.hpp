@@ -41,6 +41,17 @@ inline std::vector<double> to_vector(const torch::Tensor& t) {
 //! Intra-op threads of every entry point (set_threads); applied before each run.
 void apply_threads();
 
+//! W0, b0, W1, b1, ...: the parameter list an optimiser takes, for per-layer weight lists.
+inline std::vector<torch::Tensor> layer_parameters(const std::vector<torch::Tensor>& W,
+                                                   const std::vector<torch::Tensor>& b) {
+  std::vector<torch::Tensor> p;
+  for (std::size_t l = 0; l < W.size(); ++l) {
+    p.push_back(W[l]);
+    p.push_back(b[l]);
+  }
+  return p;
+}
+
 //! A NeuralMTL as LibTorch parameters: W (out x in) and b (out) per layer, tanh between.
 struct TorchMlp {
   std::vector<torch::Tensor> W, b;
@@ -59,14 +70,7 @@ struct TorchMlp {
       w.layers[l].b = to_vector(b[l]);
     }
   }
-  std::vector<torch::Tensor> parameters() const {
-    std::vector<torch::Tensor> p;
-    for (std::size_t l = 0; l < W.size(); ++l) {
-      p.push_back(W[l]);
-      p.push_back(b[l]);
-    }
-    return p;
-  }
+  std::vector<torch::Tensor> parameters() const { return layer_parameters(W, b); }
   //! Raw output m(x), x = sigma - 1 (rows of 3).
   torch::Tensor raw(const torch::Tensor& x) const {
     torch::Tensor h = x;
