@@ -1,9 +1,11 @@
 //! Constitutive models of the MPM solver (PhysGaussian seed App. B): elastic energies plus
 //! return maps that project the trial elastic deformation gradient onto the admissible set.
 //
-// Adding a model is one .cpp under src/mpm/materials/ with a GEN4D_REGISTER_MPM_MATERIAL line
-// and its name in the list of materials/Registry.cpp. The solver calls `update` once per batch
-// of particles, so the virtual call is amortised; each model loops over its own inline kernel.
+// Adding a model is one .cpp under src/mpm/materials/ defining `void register_<model>()`, declared
+// in materials/Models.hpp and called once from materials/Registry.cpp (explicit calls, because a
+// static library drops self-registering objects nobody references). The solver calls `update` once
+// per batch of particles, so the virtual call is amortised; each model loops over its own inline
+// kernel.
 #pragma once
 
 #include <cstddef>

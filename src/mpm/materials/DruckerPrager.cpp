@@ -1,0 +1,133 @@
+// drucker_prager (sand; PhysGaussian App. B.4, Klar et al. 2016 "Drucker-Prager elastoplasticity
+// for sand animation"), StVK-Hencky elasticity with a return map in principal Hencky strain.
+//
+// Elasticity: F = U Sigma V^T (signed SVD), e = log(Sigma), tau = U (2 mu e + lambda tr(e) I) U^T,
+// so dev(tau) = 2 mu dev(e) and tr(tau) = (3 lambda + 2 mu) tr(e) = K3 tr(e).
+//
+// Yield surface (Drucker-Prager cone matched to Mohr-Coulomb on the compressive meridian, in
+// Klar's normalisation; phi = friction angle, c = cohesion):
+//   f(tau) = |dev tau| + alpha tr(tau) - k <= 0,
+//   alpha = sqrt(2/3) 2 sin(phi) / (3 - sin(phi)),   k = sqrt(2/3) 6 c cos(phi) / (3 - sin(phi)).
+// (|dev tau| = sqrt(2 J2), so this is sqrt(J2) + A I1 <= B with the textbook A, B.) For c = 0 it is
+// Klar's cone with the apex at tau = 0; cohesion moves the apex to the hydrostatic tension
+// tr(tau)/3 = c cot(phi), i.e. to tr(e) = tr_apex = k / (alpha K3), the volumetric strain shift of
+// the literature (ziran's "cohesion" strain). phi = 0 with c > 0 has no apex (a cohesive von Mises
+// cylinder |dev tau| <= k); phi = 0 with c = 0 keeps Klar's apex at zero.
+//
+// Volume correction (Klar et al., "volume correction"): state slot 0 holds v_c = log J_P, the
+// plastic volume gained by projections to the apex (the material separated). It is added to the
+// trial strain, e = log(Sigma) + v_c / 3, so that re-compression first closes that gap stress-free.
+//
+// Return map on e (n = |dev e|, delta_gamma = n + (alpha K3 tr(e) - k) / (2 mu), Klar's delta_gamma
+// with the cohesion term):
+//   1. tr(e) > tr_apex (tension past the apex): e <- (tr_apex / 3) 1 (the stress-free state for
+//      c = 0, else the cohesion apex); v_c <- tr(e) - tr_apex; plastic shear += n.
+//   2. delta_gamma <= 0 (inside the cone): e unchanged; v_c <- 0.
+//   3. otherwise (onto the cone, along dev e): e <- e - delta_gamma dev(e) / n; v_c <- 0;
+//      plastic shear += delta_gamma. Then f = 2 mu (n - delta_gamma) + alpha K3 tr(e) - k = 0.
+// F <- U exp(e) V^T. State slot 1 accumulates the plastic shear (Hencky strain norm removed).
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+
+#include "mpm/materials/Models.hpp"
+
+namespace gen4d::mpm {
+
+namespace {
+
+using detail::Mat3;
+using detail::Vec3;
+
+struct DruckerPragerConstants {
+  double mu, lambda;
+  double alpha;    //!< cone slope
+  double k;        //!< cohesion term, Pa
+  double K3;       //!< 3 lambda + 2 mu
+  double tr_apex;  //!< tr(e) of the apex (0 without cohesion, +inf for a cylinder)
+};
+
+// Return map of one particle: F (9) and state (kStateSize) in place, tau (9) out.
+inline void drucker_prager_kernel(const DruckerPragerConstants& c, double* Fp, double* state,
+                                  double* taup) {
+  Mat3 U, V;
+  Vec3 s;
+  materials::svd3(detail::load3x3(Fp), U, s, V);
+  Vec3 e = detail::hencky_strain(s);
+  const double vc = state[0];
+  for (int k = 0; k < 3; ++k) e[k] += vc / 3.0;
+  const double tr = detail::trace3(e);
+  const Vec3 eh = detail::dev3(e);
+  const double n = detail::norm3(eh);
+  bool changed = vc != 0.0;
+  if (tr > c.tr_apex) {
+    e = Vec3{{c.tr_apex / 3.0, c.tr_apex / 3.0, c.tr_apex / 3.0}};
+    state[0] = tr - c.tr_apex;
+    state[1] += n;
+    changed = true;
+  } else {
+    const double dgamma = n + (c.alpha * c.K3 * tr - c.k) / (2 * c.mu);
+    if (dgamma > 0 && n > 0) {
+      const double shrink = std::min(dgamma, n) / n;
+      for (int k = 0; k < 3; ++k) e[k] -= shrink * eh[k];
+      state[1] += dgamma;
+      changed = true;
+    }
+    state[0] = 0.0;
+  }
+  if (changed) detail::store3x3(materials::compose_svd(U, detail::exp3(e), V), Fp);
+  detail::store3x3(detail::from_principal(U, detail::hencky_principal_tau(e, c.mu, c.lambda)),
+                   taup);
+}
+
+class DruckerPrager final : public ElasticBase {
+ public:
+  explicit DruckerPrager(const MaterialParams& p) : ElasticBase(p) {
+    const double phi = p.get("friction_angle");
+    const double cohesion = p.get("cohesion", 0.0);
+    detail::check_value(p, "friction_angle", phi >= 0 && phi < 90, "in [0, 90) degrees");
+    if (p.has("cohesion")) detail::check_value(p, "cohesion", cohesion >= 0, ">= 0 (Pa)");
+    constexpr double kDegree = 3.14159265358979323846 / 180.0;
+    const double sin_phi = std::sin(phi * kDegree), cos_phi = std::cos(phi * kDegree);
+    c_.mu = mu_;
+    c_.lambda = lambda_;
+    c_.alpha = std::sqrt(2.0 / 3.0) * 2 * sin_phi / (3 - sin_phi);
+    c_.k = std::sqrt(2.0 / 3.0) * 6 * cohesion * cos_phi / (3 - sin_phi);
+    c_.K3 = 3 * lambda_ + 2 * mu_;
+    c_.tr_apex = c_.alpha > 0 ? c_.k / (c_.alpha * c_.K3)
+                 : c_.k > 0   ? std::numeric_limits<double>::infinity()
+                              : 0.0;
+  }
+  std::string name() const override { return "drucker_prager"; }
+  std::vector<std::string> state_names() const override {
+    return {"volume_correction", "plastic_shear_strain"};
+  }
+  void update(std::size_t n, double* F, double* state, double* tau, double) const override {
+    for (std::size_t i = 0; i < n; ++i)
+      drucker_prager_kernel(c_, F + 9 * i, state + kStateSize * i, tau + 9 * i);
+  }
+  void stress(std::size_t n, const double* F, const double*, double* tau) const override {
+    for (std::size_t i = 0; i < n; ++i) {
+      Mat3 U, V;
+      Vec3 s;
+      materials::svd3(detail::load3x3(F + 9 * i), U, s, V);
+      const Vec3 t = detail::hencky_principal_tau(detail::hencky_strain(s), mu_, lambda_);
+      detail::store3x3(detail::from_principal(U, t), tau + 9 * i);
+    }
+  }
+
+ private:
+  DruckerPragerConstants c_{};
+};
+
+}  // namespace
+
+void register_drucker_prager() {
+  detail::add_material_entry(
+      {"drucker_prager", {"friction_angle", "cohesion"}, [](const MaterialParams& p) {
+         return std::make_unique<DruckerPrager>(p);
+       }});
+}
+
+}  // namespace gen4d::mpm

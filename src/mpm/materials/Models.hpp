@@ -1,0 +1,130 @@
+//! Internal to the MPM material models: the explicit registration functions that
+//! Registry.cpp calls once, the common elastic base class, deck-value checks and the small
+//! per-particle helpers (Hencky strain, principal stresses) the model kernels share.
+//
+// Registration is explicit rather than by static initialisers: the models live in the static
+// library gen4d_mpm, and the linker drops object files nobody references, which would silently
+// drop self-registering models.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "materials/Mat3.hpp"
+#include "materials/Svd3.hpp"
+#include "mpm/Material.hpp"
+
+namespace gen4d::mpm {
+
+// One per model file; Registry.cpp calls each exactly once before the first lookup.
+void register_fixed_corotated();
+void register_stvk_hencky();
+void register_neo_hookean();
+void register_drucker_prager();
+void register_von_mises();
+void register_herschel_bulkley();
+void register_fracture();
+
+namespace detail {
+
+//! Adds an entry without triggering the built-in registration (which calls this itself).
+void add_material_entry(MaterialEntry entry);
+
+//! InputError "LOC: material.KEY must be WHAT, got VALUE" unless `ok`.
+void check_value(const MaterialParams& params, const std::string& key, bool ok, const char* what);
+
+//! Smallest singular value (stretch) the logarithmic strain and log J use: inverted or
+//! collapsed particles get a large but finite restoring stress instead of NaN.
+inline constexpr double kMinStretch = 1e-6;
+
+using materials::Mat3;
+using materials::Vec3;
+
+inline Mat3 load3x3(const double* a) {
+  Mat3 m;
+  for (int k = 0; k < 9; ++k) m.a[k] = a[k];
+  return m;
+}
+
+inline void store3x3(const Mat3& m, double* a) {
+  for (int k = 0; k < 9; ++k) a[k] = m.a[k];
+}
+
+//! Principal Hencky strain log(sigma) of signed singular values, clamped at kMinStretch.
+inline Vec3 hencky_strain(const Vec3& sigma) {
+  return Vec3{{std::log(std::max(sigma[0], kMinStretch)), std::log(std::max(sigma[1], kMinStretch)),
+               std::log(std::max(sigma[2], kMinStretch))}};
+}
+
+inline Vec3 exp3(const Vec3& e) {
+  return Vec3{{std::exp(e[0]), std::exp(e[1]), std::exp(e[2])}};
+}
+
+inline double trace3(const Vec3& e) {
+  return e[0] + e[1] + e[2];
+}
+
+inline double norm3(const Vec3& e) {
+  return std::sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+}
+
+//! Deviatoric part e - tr(e)/3.
+inline Vec3 dev3(const Vec3& e) {
+  const double m = trace3(e) / 3.0;
+  return Vec3{{e[0] - m, e[1] - m, e[2] - m}};
+}
+
+//! Principal Kirchhoff stress of the StVK-Hencky energy mu |e|^2 + lambda/2 tr(e)^2.
+inline Vec3 hencky_principal_tau(const Vec3& e, double mu, double lambda) {
+  const double l = lambda * trace3(e);
+  return Vec3{{2 * mu * e[0] + l, 2 * mu * e[1] + l, 2 * mu * e[2] + l}};
+}
+
+//! Symmetric U diag(d) U^T, the Kirchhoff stress of an isotropic model from its principal values.
+inline Mat3 from_principal(const Mat3& U, const Vec3& d) {
+  return materials::compose_svd(U, d, U);
+}
+
+//! Root of a strictly decreasing scalar function g on [0, hi] with g(0) > 0 >= g(hi), by Newton
+//! steps safeguarded with bisection; `eval(x, g, dg)` gives g(x) and g'(x) (which may be
+//! infinite). Stops at |g| <= tol or a bracket at rounding level. While the bracket spans more
+//! than three decades the bisection is geometric (the lower end taken as at least 1e-300 hi), so
+//! roots far below hi, as with power laws x^n of small n, are found in a few dozen steps.
+template <class Eval>
+inline double decreasing_root(const Eval& eval, double hi, double x, double tol) {
+  double lo = 0;
+  for (int it = 0; it < 200; ++it) {
+    double g, dg;
+    eval(x, g, dg);
+    if (std::fabs(g) <= tol) break;
+    (g > 0 ? lo : hi) = x;
+    if (hi - lo <= 4 * std::numeric_limits<double>::epsilon() * hi) break;
+    double next = x - g / dg;
+    if (!(next > lo && next < hi))
+      next = lo > 1e-3 * hi ? 0.5 * (lo + hi) : std::sqrt(std::max(lo, 1e-300 * hi) * hi);
+    x = next;
+  }
+  return x;
+}
+
+}  // namespace detail
+
+//! Base of every model: E, nu, density (validated by make_material) and the Lame parameters.
+class ElasticBase : public Material {
+ public:
+  double wave_speed() const override { return std::sqrt((lambda_ + 2 * mu_) / density_); }
+
+ protected:
+  explicit ElasticBase(const MaterialParams& params) {
+    E_ = params.get("youngs_modulus");
+    nu_ = params.get("poisson_ratio");
+    density_ = params.get("density");
+    mu_ = E_ / (2 * (1 + nu_));
+    lambda_ = E_ * nu_ / ((1 + nu_) * (1 - 2 * nu_));
+  }
+  double mu_ = 0, lambda_ = 0;
+};
+
+}  // namespace gen4d::mpm
