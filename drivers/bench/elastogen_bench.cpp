@@ -24,30 +24,12 @@
 #include "core/Log.hpp"
 #include "elastogen/GlobalSolver.hpp"
 #include "elastogen/Simulation.hpp"
+#include "bench/Stream.hpp"
 #include "validation/DriverCommon.hpp"
 
 using namespace gen4d;
 
 namespace {
-
-double stream_triad(std::size_t n) {
-  std::vector<double> a(n, 0.0), b(n, 1.0), c(n, 2.0);
-  double best = 1e300;
-  for (int rep = 0; rep < 5; ++rep) {
-    MPI_Barrier(MPI_COMM_WORLD);
-    const double t0 = MPI_Wtime();
-    const double s = 3.0 + rep;
-    for (std::size_t i = 0; i < n; ++i) a[i] = b[i] + s * c[i];
-    double t = MPI_Wtime() - t0, tmax = 0;
-    MPI_Allreduce(&t, &tmax, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
-    best = std::min(best, tmax);
-  }
-  volatile double sink = a[n / 2];
-  (void)sink;
-  double bytes = 24.0 * static_cast<double>(n), total = 0;
-  MPI_Allreduce(&bytes, &total, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
-  return total / best;
-}
 
 Config cube(int cells, int sweeps) {
   const double h = 1.0 / cells;
@@ -114,7 +96,7 @@ int run(int cells, int sweeps, long stream_n) {
   int rank = 0, size = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &size);
-  const double stream = stream_triad(static_cast<std::size_t>(stream_n));
+  const double stream = bench::stream_triad(static_cast<std::size_t>(stream_n));
   const Config cfg = cube(cells, sweeps);
   log::set_quiet(true);
   elastogen::Simulation sim(MPI_COMM_WORLD, cfg);

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <array>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -45,10 +46,14 @@ struct MaterialConfig {
   double youngs_modulus = 0;  //!< Pa
   double poisson_ratio = 0;   //!< (-1, 0.5)
   double density = 0;         //!< kg/m^3
+  //! solver.method = "mpm": the model's further keys (yield_stress, friction_angle, ...) and
+  //! where each was set ("FILE:LINE" or "--set ..."), checked by the MPM material registry.
+  std::map<std::string, double> params;
+  std::map<std::string, std::string> param_where;
 };
 
 struct SolverConfig {
-  std::string method = "elastogen";   //!< "elastogen" | "newton" (reference solver)
+  std::string method = "elastogen";   //!< "elastogen" | "newton" (reference) | "mpm"
   std::string relaxation = "jacobi";  //!< "jacobi" | "chebyshev" | "cg"
   double jacobi_omega = 0.67;         //!< damping of Jacobi sweeps, (0, 1]
   double chebyshev_ratio = 0.05;      //!< lambda_min / lambda_max of the Chebyshev interval
@@ -60,6 +65,40 @@ struct SolverConfig {
   double accuracy_tolerance = 1e-3;   //!< relative true residual after the loops
   int max_extra_outer = 100;          //!< extra loops allowed by the accuracy check
   int anderson_depth = 5;             //!< Anderson acceleration history of RNN-1; 0 disables
+};
+
+//! [mpm]: the material point method's grid, particles and substeps (solver.method = "mpm").
+struct MpmConfig {
+  bool has_box = false;      //!< lo/hi given; else the object's bounds plus domain.padding cells
+  Vec3d lo{0, 0, 0};         //!< m, grid box
+  Vec3d hi{0, 0, 0};         //!< m
+  int particles_per_axis = 2;  //!< per cell and axis (2 -> 8 particles per cell)
+  double cfl = 0.3;          //!< substep <= cfl * dx / max particle speed
+  double wave_cfl = 0.5;     //!< substep <= wave_cfl * dx / elastic wave speed
+  std::string substep = "adaptive";  //!< "adaptive" | "fixed" (always simulation.dt)
+  std::string out_of_domain = "clamp";  //!< "clamp" | "remove"
+  int boundary_layers = 3;   //!< grid layers of the bounding_box condition
+  Vec3d velocity{0, 0, 0};   //!< initial velocity of every particle, m/s
+  double max_cells_per_substep = 1.0;  //!< instability guard: a particle moving farther stops the run
+};
+
+//! [[boundary]] of the MPM solver, as in PhysGaussian's configs; active for start <= t < end.
+struct BoundaryConfig {
+  std::string type;  //!< bounding_box | cuboid | particle_impulse | enforce_particle_translation
+                     //!< | enforce_particle_velocity_rotation | surface_collider
+                     //!< | release_particles_sequentially
+  BoxRegion region;  //!< lo/hi (cuboid, impulse, translation)
+  Vec3d point{0, 0, 0};
+  Vec3d normal{0, 0, 1};
+  Vec3d velocity{0, 0, 0};
+  Vec3d angular_velocity{0, 0, 0};  //!< rad/s about `point` (velocity_rotation)
+  Vec3d force{0, 0, 0};             //!< N, total over the region's particles (impulse)
+  double radius = 0, half_height = 0;  //!< cylinder of velocity_rotation (axis = normal)
+  std::string surface = "sticky";      //!< surface_collider: sticky | slip | separate
+  double friction = 0;
+  int layers = 1;                      //!< release_particles_sequentially
+  double start = 0;
+  double end = 1e300;
 };
 
 struct FixedConfig {
@@ -112,6 +151,10 @@ struct OutputConfig {
   //! Per-frame surface files, "none" | "ply" | "obj", of "auto" | "mesh" | "voxels".
   std::string surface = "none";
   std::string surface_source = "auto";
+  //! MPM: per-frame particle point clouds "none" | "ply", and OpenVDB volumes "none" | "vdb"
+  //! (density and velocity grids).
+  std::string particles = "none";
+  std::string volumes = "none";
 };
 
 struct Config {
@@ -131,6 +174,8 @@ struct Config {
   std::vector<ForceConfig> forces;
   std::vector<ColliderConfig> colliders;
   std::vector<TractionConfig> tractions;
+  MpmConfig mpm;
+  std::vector<BoundaryConfig> boundaries;
   OutputConfig output;
 
   std::string source;  //!< deck path ("<embedded>" for built-in text)

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -203,7 +204,37 @@ void read_geometries(toml::table& root, const Locator& loc, const fs::path& base
   }
 }
 
+//! Keys of [material] that only MPM models take (validated per model by the MPM registry).
+const std::vector<std::string>& mpm_material_keys() {
+  static const std::vector<std::string> keys = {
+      "friction_angle", "cohesion", "yield_stress", "hardening", "jc_A", "jc_B", "jc_n",
+      "jc_C", "jc_m", "reference_strain_rate", "room_temperature", "melt_temperature",
+      "initial_temperature", "specific_heat", "taylor_quinney", "consistency", "flow_index",
+      "fracture_strain", "failure_strain"};
+  return keys;
+}
+
+void read_mpm_material(Section& s, MaterialConfig& m) {
+  m.model = s.string("model");
+  for (const char* key : {"target", "neural_weights"})
+    s.check(!s.has(key), key, "does not apply to solver.method = \"mpm\"");
+  m.youngs_modulus = s.number("youngs_modulus");
+  require_positive(s, "youngs_modulus", m.youngs_modulus);
+  m.poisson_ratio = s.number("poisson_ratio");
+  s.check(m.poisson_ratio > -1 && m.poisson_ratio < 0.5, "poisson_ratio",
+          fmt::format("must be in (-1, 0.5), got {}", m.poisson_ratio));
+  m.density = s.number("density");
+  require_positive(s, "density", m.density);
+  for (const std::string& key : mpm_material_keys()) {
+    if (!s.has(key)) continue;
+    m.params[key] = s.number(key);
+    m.param_where[key] = s.where(key);
+  }
+}
+
 void read_material(Section& s, MaterialConfig& m, const fs::path& base_dir) {
+  for (const std::string& key : mpm_material_keys())
+    s.check(!s.has(key), key, "only applies to solver.method = \"mpm\"");
   m.model = s.choice("model", m.model, {"corotated", "neo_hookean", "stvk", "linear"});
   m.target = s.choice("target", m.target, {"analytic", "arap", "neural"});
   if (m.target == "neural") {
@@ -232,7 +263,7 @@ void read_material(Section& s, MaterialConfig& m, const fs::path& base_dir) {
 }
 
 void read_solver(const Section& s, SolverConfig& v) {
-  v.method = s.choice("method", v.method, {"elastogen", "newton"});
+  v.method = s.choice("method", v.method, {"elastogen", "newton", "mpm"});
   v.relaxation = s.choice("relaxation", v.relaxation, {"jacobi", "chebyshev", "cg"});
   v.jacobi_omega = s.number("jacobi_omega", v.jacobi_omega);
   s.check(v.jacobi_omega > 0 && v.jacobi_omega <= 1, "jacobi_omega",
@@ -258,6 +289,99 @@ void read_solver(const Section& s, SolverConfig& v) {
   v.anderson_depth = s.integer("anderson_depth", v.anderson_depth);
   s.check(v.anderson_depth >= 0 && v.anderson_depth <= 16, "anderson_depth",
           fmt::format("must be in [0, 16], got {}", v.anderson_depth));
+}
+
+void read_mpm(const Section& s, MpmConfig& m) {
+  m.has_box = s.has("lo") || s.has("hi");
+  if (m.has_box) {
+    m.lo = s.vec3("lo");
+    m.hi = s.vec3("hi");
+    require_box(s, m.lo, m.hi);
+  }
+  m.particles_per_axis = s.integer("particles_per_axis", m.particles_per_axis);
+  s.check(m.particles_per_axis >= 1 && m.particles_per_axis <= 4, "particles_per_axis",
+          fmt::format("must be in [1, 4], got {}", m.particles_per_axis));
+  m.cfl = s.number("cfl", m.cfl);
+  s.check(m.cfl > 0 && m.cfl <= 1, "cfl", fmt::format("must be in (0, 1], got {}", m.cfl));
+  m.wave_cfl = s.number("wave_cfl", m.wave_cfl);
+  s.check(m.wave_cfl > 0 && m.wave_cfl <= 1, "wave_cfl",
+          fmt::format("must be in (0, 1], got {}", m.wave_cfl));
+  m.substep = s.choice("substep", m.substep, {"adaptive", "fixed"});
+  m.out_of_domain = s.choice("out_of_domain", m.out_of_domain, {"clamp", "remove"});
+  m.boundary_layers = s.integer("boundary_layers", m.boundary_layers);
+  s.check(m.boundary_layers >= 0 && m.boundary_layers <= 8, "boundary_layers",
+          fmt::format("must be in [0, 8], got {}", m.boundary_layers));
+  m.velocity = s.vec3("velocity", m.velocity);
+  m.max_cells_per_substep = s.number("max_cells_per_substep", m.max_cells_per_substep);
+  s.check(m.max_cells_per_substep > 0 && m.max_cells_per_substep <= 1, "max_cells_per_substep",
+          fmt::format("must be in (0, 1], got {}", m.max_cells_per_substep));
+}
+
+std::vector<std::string> boundary_keys(const std::string& type) {
+  if (type == "bounding_box") return {"type", "start", "end"};
+  if (type == "cuboid") return {"type", "lo", "hi", "velocity", "start", "end"};
+  if (type == "particle_impulse") return {"type", "lo", "hi", "force", "start", "end"};
+  if (type == "enforce_particle_translation")
+    return {"type", "lo", "hi", "velocity", "start", "end"};
+  if (type == "enforce_particle_velocity_rotation")
+    return {"type",   "point",       "normal",   "radius", "half_height",
+            "velocity", "angular_velocity", "start", "end"};
+  if (type == "surface_collider")
+    return {"type", "point", "normal", "surface", "friction", "start", "end"};
+  return {"type", "normal", "layers", "start", "end"};  // release_particles_sequentially
+}
+
+Vec3d unit_normal(const Section& s, const Vec3d& n) {
+  const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  s.check(len > 0, "normal", "must not be the zero vector");
+  return {n[0] / len, n[1] / len, n[2] / len};
+}
+
+BoundaryConfig read_boundary(const Section& s) {
+  s.reject_unknown(key_names("boundary"));
+  BoundaryConfig b;
+  b.type = s.choice("type", "",
+                    {"bounding_box", "cuboid", "particle_impulse", "enforce_particle_translation",
+                     "enforce_particle_velocity_rotation", "surface_collider",
+                     "release_particles_sequentially"});
+  reject_foreign_keys(s, "boundary", b.type, boundary_keys(b.type));
+  b.start = s.number("start", b.start);
+  require_at_least(s, "start", b.start, 0);
+  b.end = s.number("end", b.end);
+  s.check(b.end > b.start, "end", fmt::format("must be > start ({}), got {}", b.start, b.end));
+  if (b.type == "cuboid" || b.type == "particle_impulse" ||
+      b.type == "enforce_particle_translation") {
+    b.region.lo = s.vec3("lo");
+    b.region.hi = s.vec3("hi");
+    require_box(s, b.region.lo, b.region.hi);
+  }
+  if (b.type == "cuboid" || b.type == "enforce_particle_translation")
+    b.velocity = s.vec3("velocity");
+  if (b.type == "particle_impulse") b.force = s.vec3("force");
+  if (b.type == "enforce_particle_velocity_rotation") {
+    b.point = s.vec3("point");
+    b.normal = unit_normal(s, s.vec3("normal"));
+    b.radius = s.number("radius");
+    require_positive(s, "radius", b.radius);
+    b.half_height = s.number("half_height");
+    require_positive(s, "half_height", b.half_height);
+    b.velocity = s.vec3("velocity", b.velocity);
+    b.angular_velocity = s.vec3("angular_velocity", b.angular_velocity);
+  }
+  if (b.type == "surface_collider") {
+    b.point = s.vec3("point");
+    b.normal = unit_normal(s, s.vec3("normal"));
+    b.surface = s.choice("surface", b.surface, {"sticky", "slip", "separate"});
+    b.friction = s.number("friction", b.friction);
+    require_at_least(s, "friction", b.friction, 0);
+  }
+  if (b.type == "release_particles_sequentially") {
+    b.normal = unit_normal(s, s.vec3("normal", b.normal));
+    b.layers = s.integer("layers", b.layers);
+    require_at_least(s, "layers", b.layers, 1);
+    s.check(b.end < 1e299, "end", "is required: layers are released evenly over [start, end]");
+  }
+  return b;
 }
 
 FixedConfig read_fixed(const Section& s) {
@@ -354,6 +478,8 @@ void read_output(const Section& s, OutputConfig& o) {
   require_positive(s, "progress_interval", o.progress_interval);
   o.surface = s.choice("surface", o.surface, {"none", "ply", "obj"});
   o.surface_source = s.choice("surface_source", o.surface_source, {"auto", "mesh", "voxels"});
+  o.particles = s.choice("particles", o.particles, {"none", "ply"});
+  o.volumes = s.choice("volumes", o.volumes, {"none", "vdb"});
 }
 
 //! A mesh surface needs mesh geometry: every [[geometry]] part must be a mesh.
@@ -441,11 +567,27 @@ Config parse_deck(const std::string& text, const std::string& source_name,
   read_simulation(table_section(root, "simulation", loc), c);
   read_domain(table_section(root, "domain", loc), c);
   read_geometries(root, loc, fs::path(base_dir.empty() ? "." : base_dir), c);
+  read_solver(table_section(root, "solver", loc), c.solver);
   {
     Section material = table_section(root, "material", loc);
-    read_material(material, c.material, fs::path(base_dir.empty() ? "." : base_dir));
+    if (c.solver.method == "mpm")
+      read_mpm_material(material, c.material);
+    else
+      read_material(material, c.material, fs::path(base_dir.empty() ? "." : base_dir));
   }
-  read_solver(table_section(root, "solver", loc), c.solver);
+  {
+    const Section mpm = table_section(root, "mpm", loc);
+    if (c.solver.method == "mpm")
+      read_mpm(mpm, c.mpm);
+    else if (mpm.present())
+      mpm.fail_table("[mpm] only applies to solver.method = \"mpm\"");
+  }
+  for (const Section& s : array_sections(root, "boundary", loc)) {
+    if (c.solver.method != "mpm")
+      s.fail_table("[[boundary]] only applies to solver.method = \"mpm\" (the voxel solver uses "
+                   "[[fixed]], [[kinematic]], [[force]], [[collider]] and [[traction]])");
+    c.boundaries.push_back(read_boundary(s));
+  }
   for (const Section& s : array_sections(root, "fixed", loc)) c.fixed.push_back(read_fixed(s));
   for (const Section& s : array_sections(root, "kinematic", loc))
     c.kinematic.push_back(read_kinematic(s));

@@ -44,7 +44,27 @@ const std::vector<TableSpec>& schema() {
         {"youngs_modulus", K::Number},
         {"poisson_ratio", K::Number},
         {"density", K::Number},
-        {"neural_weights", K::String}}},
+        {"neural_weights", K::String},
+        // MPM models (solver.method = "mpm"); which model takes which key: inputs/README.md.
+        {"friction_angle", K::Number},
+        {"cohesion", K::Number},
+        {"yield_stress", K::Number},
+        {"hardening", K::Number},
+        {"jc_A", K::Number},
+        {"jc_B", K::Number},
+        {"jc_n", K::Number},
+        {"jc_C", K::Number},
+        {"jc_m", K::Number},
+        {"reference_strain_rate", K::Number},
+        {"room_temperature", K::Number},
+        {"melt_temperature", K::Number},
+        {"initial_temperature", K::Number},
+        {"specific_heat", K::Number},
+        {"taylor_quinney", K::Number},
+        {"consistency", K::Number},
+        {"flow_index", K::Number},
+        {"fracture_strain", K::Number},
+        {"failure_strain", K::Number}}},
       {"solver",
        false,
        {{"method", K::String},
@@ -59,6 +79,35 @@ const std::vector<TableSpec>& schema() {
         {"accuracy_tolerance", K::Number},
         {"max_extra_outer", K::Integer},
         {"anderson_depth", K::Integer}}},
+      {"mpm",
+       false,
+       {{"lo", K::Vec3},
+        {"hi", K::Vec3},
+        {"particles_per_axis", K::Integer},
+        {"cfl", K::Number},
+        {"wave_cfl", K::Number},
+        {"substep", K::String},
+        {"out_of_domain", K::String},
+        {"boundary_layers", K::Integer},
+        {"velocity", K::Vec3},
+        {"max_cells_per_substep", K::Number}}},
+      {"boundary",
+       true,
+       {{"type", K::String},
+        {"lo", K::Vec3},
+        {"hi", K::Vec3},
+        {"point", K::Vec3},
+        {"normal", K::Vec3},
+        {"velocity", K::Vec3},
+        {"angular_velocity", K::Vec3},
+        {"force", K::Vec3},
+        {"radius", K::Number},
+        {"half_height", K::Number},
+        {"surface", K::String},
+        {"friction", K::Number},
+        {"layers", K::Integer},
+        {"start", K::Number},
+        {"end", K::Number}}},
       {"fixed", true, {{"lo", K::Vec3}, {"hi", K::Vec3}}},
       {"kinematic",
        true,
@@ -100,7 +149,9 @@ const std::vector<TableSpec>& schema() {
         {"checkpoint_keep", K::Integer},
         {"progress_interval", K::Number},
         {"surface", K::String},
-        {"surface_source", K::String}}},
+        {"surface_source", K::String},
+        {"particles", K::String},
+        {"volumes", K::String}}},
   };
   return tables;
 }
@@ -202,6 +253,10 @@ std::string Locator::at(const toml::node* node, const std::string& path) const {
 void Locator::fail(const toml::node* node, const std::string& path,
                    const std::string& message) const {
   throw InputError(fmt::format("{}: key '{}': {}", at(node, path), path, message));
+}
+
+std::string Section::where(std::string_view key) const {
+  return loc_.at(node(key), key_path(key));
 }
 
 const toml::node* Section::node(std::string_view key) const {

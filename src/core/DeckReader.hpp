@@ -85,6 +85,8 @@ class Section {
   //! Overwrites a string key (used to store resolved file paths in the final deck text).
   void replace(std::string_view key, const std::string& value);
 
+  //! "FILE:LINE" (or "--set KEY=VALUE") of a key that is present.
+  std::string where(std::string_view key) const;
   [[noreturn]] void fail(std::string_view key, const std::string& message) const;
   //! A problem of the table as a whole, located at its header.
   [[noreturn]] void fail_table(const std::string& message) const;

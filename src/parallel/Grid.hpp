@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstddef>
+#include <vector>
 
 namespace gen4d::parallel {
 
@@ -30,6 +31,12 @@ struct Box {
 class NodeGrid {
  public:
   NodeGrid(MPI_Comm comm, const std::array<long, 3>& global_nodes);
+  //! Same, with the node count of every process slab per axis given (static load balance):
+  //! ownership[a] has one entry per process along axis a, summing to global_nodes[a].
+  NodeGrid(MPI_Comm comm, const std::array<long, 3>& global_nodes,
+           const std::array<std::vector<long>, 3>& ownership);
+  //! PETSc's default process grid (processes per axis) for a node grid on `comm`.
+  static std::array<int, 3> process_grid(MPI_Comm comm, const std::array<long, 3>& global_nodes);
   ~NodeGrid();
   NodeGrid(const NodeGrid&) = delete;
   NodeGrid& operator=(const NodeGrid&) = delete;
@@ -50,6 +57,10 @@ class NodeGrid {
   const Box& adjacent_cells() const { return cells_; }
   //! Cells this rank owns for output: lower corner owned and inside the grid.
   const Box& owned_cells() const { return owned_cells_; }
+  //! First node index of every process slab per axis, plus the end (size = processes + 1).
+  const std::array<std::vector<long>, 3>& slab_starts() const { return starts_; }
+  //! Rank that owns node (i, j, k) (PETSc's x-fastest process numbering).
+  int owner_of(long i, long j, long k) const;
 
  private:
   MPI_Comm comm_;
@@ -57,6 +68,9 @@ class NodeGrid {
   std::array<long, 3> global_{};
   DM dm1_ = nullptr, dm3_ = nullptr;
   Box owned_, ghosted_, cells_, owned_cells_;
+  std::array<std::vector<long>, 3> starts_;
+
+  void init(const std::array<std::vector<long>, 3>* ownership);
 };
 
 }  // namespace gen4d::parallel

@@ -1,0 +1,154 @@
+// Slump of a yield-stress fluid (Herschel-Bulkley / Bingham) vs the cylinder slump model of
+// Pashias, Boger, Summers & Glenister (J. Rheol. 40, 1179, 1996):
+//   s / H = 1 - 2 t (1 - ln 2t),  t = tau_y / (rho g H)   (valid for t < 0.5)
+// A cylinder of height H and diameter H (quarter model: slip symmetry planes x = 0, y = 0)
+// rests on a frictionless floor and is released under gravity; the slump s is H minus the
+// final height on the axis. Target: within 10 % of the model over a range of tau_y.
+//
+// Material: rho = 1000 kg/m^3, E = 0.2 MPa, nu = 0.3 (elastic settlement ~0.5 % of H),
+// consistency 2 Pa s, flow index 1 (Bingham). The yield criterion is von Mises with shear
+// yield stress tau_y (see the herschel_bulkley model); Pashias' one-dimensional analysis uses
+// the same tau_y as the shear yield stress.
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "validation/DriverCommon.hpp"
+#include "validation/MpmCommon.hpp"
+
+namespace gen4d {
+namespace {
+
+double pashias(double t) { return 1 - 2 * t * (1 - std::log(2 * t)); }
+
+struct Slump {
+  double tau = 0, s_over_h = 0, t_end = 0, wall = 0;
+  long long particles = 0;
+  long substeps = 0;
+};
+
+Slump simulate(MPI_Comm comm, double tau_nd, int cells_h, double consistency) {
+  const double H = 0.1, R = H / 2, rho = 1000, g = 9.81, dx = H / cells_h;
+  const int ppa = 2, pad = 4;
+  const double spread = R * 4.0;  // room for the spread base
+  mpm::GridSpec grid;
+  grid.dx = dx;
+  grid.lo = {-pad * dx, -pad * dx, -pad * dx};
+  const long rc = static_cast<long>(std::ceil(spread / dx));
+  grid.cells = {rc + 2 * pad, rc + 2 * pad, cells_h + 2 * pad + 1};
+  auto material = driver::mpm_material(
+      "herschel_bulkley", {{"youngs_modulus", 2e5}, {"poisson_ratio", 0.3}, {"density", rho},
+                           {"yield_stress", tau_nd * rho * g * H}, {"consistency", consistency},
+                           {"flow_index", 1.0}});
+  mpm::SolverOptions opt;
+  opt.gravity = {0, 0, -g};
+  opt.max_dt = 1e-3;
+  auto plane = [](const char* surface, Vec3d normal) {
+    BoundaryConfig b;
+    b.type = "surface_collider";
+    b.surface = surface;
+    b.point = {0, 0, 0};
+    b.normal = normal;
+    return b;
+  };
+  std::vector<BoundaryConfig> bcs = {plane("sticky", {0, 0, 1}), plane("slip", {1, 0, 0}),
+                                     plane("slip", {0, 1, 0})};
+  struct QuarterCylinder : geometry::Shape {
+    double R, H;
+    bool inside(const Eigen::Vector3d& p) const override {
+      return p.x() >= 0 && p.y() >= 0 && p.x() * p.x() + p.y() * p.y() <= R * R && p.z() >= 0 &&
+             p.z() <= H;
+    }
+    geometry::Aabb bounds() const override {
+      geometry::Aabb b;
+      b.lo = Eigen::Vector3d(0, 0, 0);
+      b.hi = Eigen::Vector3d(R, R, H);
+      return b;
+    }
+  } cyl;
+  cyl.R = R;
+  cyl.H = H;
+  const auto start = std::chrono::steady_clock::now();
+  auto solver = driver::mpm_solver(comm, grid, material, opt, bcs, cyl, ppa);
+  Slump r;
+  r.tau = tau_nd;
+  r.particles = solver->count();
+  const double tc = std::sqrt(H / g);
+  double t = 0, ke_max = 0;
+  while (t < 40 * tc) {
+    r.substeps += driver::advance(*solver, t, t + 0.5 * tc);
+    const double ke = solver->kinetic_energy();
+    ke_max = std::max(ke_max, ke);
+    if (t > 4 * tc && ke < 1e-5 * ke_max) break;
+  }
+  r.t_end = t;
+  const mpm::Particles& p = solver->particles();
+  const double h = driver::particle_max(comm, p, [&](std::size_t i) {
+                     return std::hypot(p.x[3 * i], p.x[3 * i + 1]) < 1.5 * dx ? p.x[3 * i + 2]
+                                                                              : -1e300;
+                   }) + 0.5 * dx / ppa;
+  r.s_over_h = (H - h) / H;
+  r.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+int run(const std::string& list, int cells_h, double consistency, const std::string& csv) {
+  MPI_Comm comm = MPI_COMM_WORLD;
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  std::vector<double> taus;
+  std::stringstream ss(list);
+  for (std::string s; std::getline(ss, s, ',');) {
+    try {
+      taus.push_back(std::stod(s));
+    } catch (const std::exception&) {
+      throw InputError("--tau: '" + s + "' is not a number");
+    }
+    if (!(taus.back() > 0 && taus.back() < 0.5))
+      throw InputError("--tau: dimensionless yield stresses must be in (0, 0.5)");
+  }
+  if (rank == 0)
+    std::printf("%8s | %8s %8s %7s | %9s %8s %7s %7s\n", "tau'", "s/H sim", "Pashias", "err %",
+                "particles", "substeps", "t_end", "wall s");
+  FILE* out = rank == 0 && !csv.empty() ? std::fopen(csv.c_str(), "w") : nullptr;
+  if (rank == 0 && !csv.empty() && !out) throw RuntimeError(csv + ": cannot write");
+  if (out) std::fprintf(out, "tau,s_over_h,pashias\n");
+  bool ok = true;
+  double worst = 0;
+  for (double tau : taus) {
+    const Slump r = simulate(comm, tau, cells_h, consistency);
+    const double err = (r.s_over_h - pashias(tau)) / pashias(tau);
+    worst = std::max(worst, std::abs(err));
+    ok &= std::abs(err) <= 0.10;
+    if (rank == 0) {
+      std::printf("%8.3f | %8.4f %8.4f %+7.1f | %9lld %8ld %7.2f %7.1f\n", tau, r.s_over_h,
+                  pashias(tau), 100 * err, r.particles, r.substeps, r.t_end, r.wall);
+      std::fflush(stdout);
+    }
+    if (out) std::fprintf(out, "%g,%g,%g\n", tau, r.s_over_h, pashias(tau));
+  }
+  if (out) std::fclose(out);
+  if (rank == 0)
+    std::printf("worst error %.1f %% (target 10 %%)\n%s\n", 100 * worst, ok ? "PASS" : "FAIL");
+  return ok ? 0 : 1;
+}
+
+}  // namespace
+}  // namespace gen4d
+
+int main(int argc, char** argv) {
+  std::string taus = "0.05,0.1,0.15,0.2,0.3", csv;
+  int cells = 20;
+  double k = 2;
+  return gen4d::driver::main_with(
+      argc, argv, "Slump of a Herschel-Bulkley cylinder vs Pashias et al. 1996",
+      [&](CLI::App& app) {
+        app.add_option("--tau", taus, "Comma-separated tau_y / (rho g H), each in (0, 0.5)");
+        app.add_option("--cells", cells, "Grid cells over the height H")->check(CLI::Range(6, 200));
+        app.add_option("--consistency", k, "Consistency K, Pa s")->check(CLI::Range(0.0, 1e4));
+        app.add_option("--csv", csv, "Write tau', s/H, Pashias");
+      },
+      [&] { return gen4d::run(taus, cells, k, csv); });
+}

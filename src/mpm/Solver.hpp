@@ -1,0 +1,127 @@
+//! Explicit MLS-MPM with quadratic B-splines and APIC transfers on a distributed grid
+//! (PhysGaussian seed §3.3; DESIGN.md §4).
+//
+// Decomposition: the grid is a PETSc DMDA over nodes with a box stencil of width 1 and
+// per-axis slabs balanced by the particle count. A particle belongs to the rank that owns its
+// nearest node, so its 3x3x3 B-spline footprint lies in that rank's ghosted box. P2G adds into
+// the ghosted box and one DMDA scatter-add sums the overlaps; after it every rank holds complete
+// sums on its whole ghosted box, so the grid update runs there redundantly and G2P needs no
+// second exchange. Particles then migrate (all-to-all) to the owner of their new nearest node.
+//
+// Bit-identical results at any rank count: each P2G contribution is rounded to an integer
+// multiple of a power-of-two quantum chosen from the global maximum contribution (2^-40 of it),
+// so node sums are exact integer sums in double precision (below 2^53), independent of order
+// and of how particles are split across ranks. Everything else is per particle or per node.
+#pragma once
+
+#include <mpi.h>
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/Config.hpp"
+#include "core/Error.hpp"
+#include "core/Timers.hpp"
+#include "mpm/Material.hpp"
+#include "mpm/Particles.hpp"
+#include "parallel/Grid.hpp"
+#include "parallel/Halo.hpp"
+
+namespace gen4d::mpm {
+
+//! The background grid: node (i, j, k) sits at lo + (i, j, k) dx, for i in [0, cells].
+struct GridSpec {
+  Vec3d lo{0, 0, 0};
+  double dx = 0;
+  std::array<long, 3> cells{0, 0, 0};
+  std::array<long, 3> nodes() const { return {cells[0] + 1, cells[1] + 1, cells[2] + 1}; }
+};
+
+struct SolverOptions {
+  Vec3d gravity{0, 0, -9.81};
+  double max_dt = 1e-3;             //!< s
+  bool adaptive = true;             //!< false: every substep is max_dt
+  double cfl = 0.3;                 //!< dt <= cfl dx / max speed
+  double wave_cfl = 0.5;            //!< dt <= wave_cfl dx / elastic wave speed
+  bool remove_outside = false;      //!< particles leaving the grid: removed (else clamped)
+  int boundary_layers = 3;          //!< node layers of the bounding-box walls
+  double max_cells_per_substep = 1;  //!< instability guard
+};
+
+//! A particle that went non-finite or moved too far in one substep: the run is unstable.
+class InstabilityError : public RuntimeError {
+ public:
+  explicit InstabilityError(const std::string& what) : RuntimeError(what) {}
+};
+
+class Solver {
+ public:
+  Solver(MPI_Comm comm, const GridSpec& grid, std::shared_ptr<const Material> material,
+         const SolverOptions& options, std::vector<BoundaryConfig> boundaries);
+  ~Solver();
+
+  //! Takes this rank's particles (any subset), builds the balanced grid from the global
+  //! particle distribution and migrates every particle to its owner. Collective.
+  void distribute(Particles local);
+  //! Largest admissible substep not exceeding `limit` (collective).
+  double stable_dt(double limit) const;
+  //! Advances particles from time t by dt. Collective. Throws InstabilityError (every rank).
+  void substep(double t, double dt);
+
+  Particles& particles() { return p_; }
+  const Particles& particles() const { return p_; }
+  const GridSpec& spec() const { return spec_; }
+  const parallel::NodeGrid& grid() const { return *grid_; }
+  const Material& material() const { return *material_; }
+  PhaseTimers& timers() { return timers_; }
+  const PhaseTimers& timers() const { return timers_; }
+
+  // Collective diagnostics (exact sums: identical at any rank count).
+  long long count() const;
+  double total_mass() const;
+  std::array<double, 3> total_momentum() const;
+  double kinetic_energy() const;
+  long long removed() const { return removed_total_; }  //!< all ranks, since the start
+  long long clamped() const { return clamped_total_; }
+  long long migrated() const { return migrated_total_; }
+  //! Restores counters after a restart.
+  void set_counters(long long removed, long long clamped) {
+    removed_total_ = removed;
+    clamped_total_ = clamped;
+  }
+  //! Rank owning the nearest node of position x (after clamping into the grid).
+  int owner_of(const double* x) const;
+
+ private:
+  void build_grid();
+  void update_stress(double dt);
+  void p2g(double dt);
+  void grid_update(double t, double dt);
+  void g2p(double t, double dt);
+  void particle_conditions(double t, double dt);
+  void check_and_confine(double t, double dt);
+  void migrate();
+  bool frozen(std::size_t i, double t) const;
+
+  MPI_Comm comm_;
+  int rank_ = 0, size_ = 1;
+  GridSpec spec_;
+  std::shared_ptr<const Material> material_;
+  SolverOptions opt_;
+  std::vector<BoundaryConfig> bcs_;
+  Particles p_;
+  std::unique_ptr<parallel::NodeGrid> grid_;
+  std::unique_ptr<parallel::Halo> halo1_, halo3_;
+  std::vector<double> mass_, mom_, vel_;  // ghosted box: 1, 3, 3 per node
+  std::vector<double> tau_;               // per particle Kirchhoff stress (9)
+  double quantum_mass_ = 1, quantum_mom_ = 1;
+  // release_particles_sequentially: projection range of the initial particles on its normal
+  std::vector<std::array<double, 2>> release_range_;
+  long long removed_total_ = 0, clamped_total_ = 0, migrated_total_ = 0;
+  PhaseTimers timers_;
+};
+
+}  // namespace gen4d::mpm
