@@ -43,7 +43,9 @@ std::vector<std::pair<long, std::string>> list_checkpoints(const std::string& di
   return found;
 }
 
-void remove_old_checkpoints(const std::string& dir, int keep) {
+}  // namespace
+
+void prune_checkpoints(const std::string& dir, int keep) {
   if (keep <= 0) return;
   auto found = list_checkpoints(dir);
   for (std::size_t i = 0; i + keep < found.size(); ++i) {
@@ -53,6 +55,8 @@ void remove_old_checkpoints(const std::string& dir, int keep) {
     }
   }
 }
+
+namespace {
 
 void write_contents(hid_t file, const CheckpointState& s) {
   h5::write_attr(file, "format", std::string(kCheckpointFormat));
@@ -214,7 +218,7 @@ std::string write_checkpoint(MPI_Comm comm, const std::string& dir, const Checkp
       error = "cannot rename " + temp_path + " to " + final_path;
     }
     if (error.empty()) {
-      remove_old_checkpoints(dir, keep);
+      prune_checkpoints(dir, keep);
     } else {
       std::remove(temp_path.c_str());
     }

@@ -67,4 +67,8 @@ CheckpointMeta read_checkpoint(MPI_Comm comm, const std::string& path, const Nod
 //! Path of the checkpoint with the highest step in `dir`; "" when there is none.
 std::string latest_checkpoint(const std::string& dir);
 
+//! Deletes all but the newest `keep` checkpoint_<digits>.h5 files in `dir` (keep <= 0 keeps
+//! all). A file that cannot be removed is logged as a warning, not thrown.
+void prune_checkpoints(const std::string& dir, int keep);
+
 }  // namespace gen4d::io

@@ -1,5 +1,6 @@
 #include "io/Hdf5.hpp"
 
+#include <algorithm>
 #include <filesystem>
 #include <sstream>
 
@@ -302,8 +303,10 @@ Handle create_grid_dataset(hid_t loc, const std::string& name, hid_t type,
       H5Dclose, Failure::Runtime, "cannot create dataset " + name);
 }
 
-Handle open_grid_dataset(hid_t loc, const std::string& path, H5T_class_t type_class,
-                         const std::array<long, 3>& dims, int components, const std::string& file) {
+namespace {
+//! Opens dataset `path` and checks that its shape is `expected` and its type `type_class`.
+Handle open_shaped_dataset(hid_t loc, const std::string& path, H5T_class_t type_class,
+                           const std::vector<hsize_t>& expected, const std::string& file) {
   if (!link_exists(loc, path)) raise(Failure::Input, file + ": missing dataset " + path);
   std::string what = file + ": cannot open dataset " + path;
   Handle dataset =
@@ -313,7 +316,6 @@ Handle open_grid_dataset(hid_t loc, const std::string& path, H5T_class_t type_cl
   int rank = H5Sget_simple_extent_ndims(space.get());
   std::vector<hsize_t> shape(rank > 0 ? rank : 0);
   if (rank > 0) H5Sget_simple_extent_dims(space.get(), shape.data(), nullptr);
-  std::vector<hsize_t> expected = grid_shape(dims, components);
   if (shape != expected) {
     raise(Failure::Input, file + ": dataset " + path + " has shape " + shape_text(shape) +
                               ", expected " + shape_text(expected));
@@ -323,6 +325,12 @@ Handle open_grid_dataset(hid_t loc, const std::string& path, H5T_class_t type_cl
                               (type_class == H5T_FLOAT ? "floating point" : "integer") + ")");
   }
   return dataset;
+}
+}  // namespace
+
+Handle open_grid_dataset(hid_t loc, const std::string& path, H5T_class_t type_class,
+                         const std::array<long, 3>& dims, int components, const std::string& file) {
+  return open_shaped_dataset(loc, path, type_class, grid_shape(dims, components), file);
 }
 
 namespace {
@@ -374,6 +382,134 @@ void read_box(hid_t dataset, hid_t mem_type, const NodeBox& box, int components,
 
 void read_all(hid_t dataset, hid_t mem_type, void* data, const std::string& what) {
   check(H5Dread(dataset, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), Failure::Input, what);
+}
+
+std::vector<hsize_t> rows_shape(hsize_t rows, int width) {
+  std::vector<hsize_t> shape{rows};
+  if (width > 1) shape.push_back(static_cast<hsize_t>(width));
+  return shape;
+}
+
+Handle create_rows_dataset(hid_t loc, const std::string& name, hid_t type, hsize_t rows,
+                           int width) {
+  std::vector<hsize_t> shape = rows_shape(rows, width);
+  Handle space = checked(H5Screate_simple(static_cast<int>(shape.size()), shape.data(), nullptr),
+                         H5Sclose, Failure::Runtime, "cannot describe dataset " + name);
+  return checked(
+      H5Dcreate2(loc, name.c_str(), type, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+      H5Dclose, Failure::Runtime, "cannot create dataset " + name);
+}
+
+Handle open_rows_dataset(hid_t loc, const std::string& path, H5T_class_t type_class, hsize_t rows,
+                         int width, const std::string& file) {
+  return open_shaped_dataset(loc, path, type_class, rows_shape(rows, width), file);
+}
+
+namespace {
+//! File and memory selections of rows [start, start + count); no rows selects nothing.
+std::pair<Handle, Handle> rows_selection(hid_t dataset, hsize_t start, hsize_t count, int width,
+                                         Failure kind, const std::string& what) {
+  Handle file_space = checked(H5Dget_space(dataset), H5Sclose, kind, what);
+  if (count == 0) {
+    hsize_t one = 1;
+    Handle mem_space = checked(H5Screate_simple(1, &one, nullptr), H5Sclose, kind, what);
+    check(H5Sselect_none(file_space.get()), kind, what);
+    check(H5Sselect_none(mem_space.get()), kind, what);
+    return {std::move(file_space), std::move(mem_space)};
+  }
+  std::vector<hsize_t> offset{start};
+  if (width > 1) offset.push_back(0);
+  std::vector<hsize_t> shape = rows_shape(count, width);
+  check(H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, offset.data(), nullptr, shape.data(),
+                            nullptr),
+        kind, what);
+  Handle mem_space =
+      checked(H5Screate_simple(static_cast<int>(shape.size()), shape.data(), nullptr), H5Sclose,
+              kind, what);
+  return {std::move(file_space), std::move(mem_space)};
+}
+}  // namespace
+
+void write_rows(hid_t dataset, hid_t mem_type, hsize_t start, hsize_t count, int width,
+                const void* data) {
+  const std::string what = "cannot write a dataset";
+  auto [file_space, mem_space] =
+      rows_selection(dataset, start, count, width, Failure::Runtime, what);
+  // A dataset without rows has no storage to write to (and every rank knows it).
+  if (H5Sget_simple_extent_npoints(file_space.get()) == 0) return;
+  Handle dxpl = collective_transfer();
+  static const double nothing = 0;  // HDF5 rejects a null buffer even for an empty selection
+  check(H5Dwrite(dataset, mem_type, mem_space.get(), file_space.get(), dxpl.get(),
+                 count == 0 ? &nothing : data),
+        Failure::Runtime, what);
+}
+
+void read_rows(hid_t dataset, hid_t mem_type, hsize_t start, hsize_t count, int width, void* data,
+               const std::string& what) {
+  auto [file_space, mem_space] = rows_selection(dataset, start, count, width, Failure::Input, what);
+  if (H5Sget_simple_extent_npoints(file_space.get()) == 0) return;
+  Handle dxpl = collective_transfer();
+  double nothing = 0;
+  check(H5Dread(dataset, mem_type, mem_space.get(), file_space.get(), dxpl.get(),
+                count == 0 ? &nothing : data),
+        Failure::Input, what);
+}
+
+void write_string_list_attr(hid_t obj, const std::string& name,
+                            const std::vector<std::string>& values) {
+  if (has_attr(obj, name)) check(H5Adelete(obj, name.c_str()), Failure::Runtime, name);
+  std::size_t longest = 0;
+  for (const std::string& v : values) longest = std::max(longest, v.size());
+  Handle type = checked(H5Tcopy(H5T_C_S1), H5Tclose, Failure::Runtime, name);
+  check(H5Tset_size(type.get(), longest + 1), Failure::Runtime, name);
+  check(H5Tset_strpad(type.get(), H5T_STR_NULLTERM), Failure::Runtime, name);
+  hsize_t n = values.size();
+  Handle space = n == 0
+                     ? checked(H5Screate(H5S_NULL), H5Sclose, Failure::Runtime, name)
+                     : checked(H5Screate_simple(1, &n, nullptr), H5Sclose, Failure::Runtime, name);
+  Handle attr =
+      checked(H5Acreate2(obj, name.c_str(), type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT),
+              H5Aclose, Failure::Runtime, "cannot create attribute '" + name + "'");
+  if (n == 0) return;
+  std::string buffer(n * (longest + 1), '\0');
+  for (std::size_t i = 0; i < n; ++i) values[i].copy(&buffer[i * (longest + 1)], values[i].size());
+  check(H5Awrite(attr.get(), type.get(), buffer.data()), Failure::Runtime,
+        "cannot write attribute '" + name + "'");
+}
+
+std::vector<std::string> read_string_list_attr(hid_t obj, const std::string& name,
+                                               const std::string& file) {
+  Handle attr = open_attr(obj, name, file);
+  Handle type = checked(H5Aget_type(attr.get()), H5Tclose, Failure::Input, file + ": " + name);
+  Handle space = checked(H5Aget_space(attr.get()), H5Sclose, Failure::Input, file + ": " + name);
+  const H5S_class_t space_class = H5Sget_simple_extent_type(space.get());
+  if (H5Tget_class(type.get()) != H5T_STRING ||
+      (space_class != H5S_NULL && H5Sget_simple_extent_ndims(space.get()) != 1)) {
+    raise(Failure::Input, file + ": attribute '" + name + "' must be a list of strings");
+  }
+  std::vector<std::string> values;
+  if (space_class == H5S_NULL) return values;
+  const hssize_t n = H5Sget_simple_extent_npoints(space.get());
+  std::string what = file + ": cannot read attribute '" + name + "'";
+  if (H5Tis_variable_str(type.get()) > 0) {
+    Handle mem = checked(H5Tcopy(H5T_C_S1), H5Tclose, Failure::Input, what);
+    check(H5Tset_size(mem.get(), H5T_VARIABLE), Failure::Input, what);
+    std::vector<char*> texts(static_cast<std::size_t>(n), nullptr);
+    check(H5Aread(attr.get(), mem.get(), texts.data()), Failure::Input, what);
+    for (char* text : texts) {
+      values.emplace_back(text != nullptr ? text : "");
+      H5free_memory(text);
+    }
+    return values;
+  }
+  const std::size_t size = H5Tget_size(type.get());
+  std::string buffer(static_cast<std::size_t>(n) * size, '\0');
+  check(H5Aread(attr.get(), type.get(), buffer.data()), Failure::Input, what);
+  for (hssize_t i = 0; i < n; ++i) {
+    std::string text = buffer.substr(static_cast<std::size_t>(i) * size, size);
+    values.push_back(text.substr(0, text.find('\0')));
+  }
+  return values;
 }
 
 std::string first_error(MPI_Comm comm, const std::string& local_error) {

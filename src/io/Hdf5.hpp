@@ -97,6 +97,27 @@ void read_box(hid_t dataset, hid_t mem_type, const NodeBox& box, int components,
 //! Serial read of a whole dataset into `data`; failures are InputErrors naming `what`.
 void read_all(hid_t dataset, hid_t mem_type, void* data, const std::string& what);
 
+// Datasets of rows indexed by a global id (particle arrays): shape [rows] when width is 1,
+// else [rows][width]. Ranks write and read contiguous row ranges, so every decomposition
+// writes the same file.
+std::vector<hsize_t> rows_shape(hsize_t rows, int width);
+Handle create_rows_dataset(hid_t loc, const std::string& name, hid_t type, hsize_t rows, int width);
+//! Opens `path` and checks its shape and type class; InputError naming file and dataset.
+Handle open_rows_dataset(hid_t loc, const std::string& path, H5T_class_t type_class, hsize_t rows,
+                         int width, const std::string& file);
+//! Collective write of rows [start, start + count) (`width` values per row, row-major).
+void write_rows(hid_t dataset, hid_t mem_type, hsize_t start, hsize_t count, int width,
+                const void* data);
+//! Collective read of rows [start, start + count); failures are InputErrors naming `what`.
+void read_rows(hid_t dataset, hid_t mem_type, hsize_t start, hsize_t count, int width, void* data,
+               const std::string& what);
+
+//! A one-dimensional attribute of strings (an empty list is stored with a null dataspace).
+void write_string_list_attr(hid_t obj, const std::string& name,
+                            const std::vector<std::string>& values);
+std::vector<std::string> read_string_list_attr(hid_t obj, const std::string& name,
+                                               const std::string& file);
+
 //! Returns the first failing rank's message on every rank of `comm` ("" when all succeeded).
 //! Lets a rank whose local step failed avoid leaving the others waiting in a collective call.
 std::string first_error(MPI_Comm comm, const std::string& local_error);

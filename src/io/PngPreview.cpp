@@ -269,20 +269,7 @@ void write_png(const std::string& path, const Image& image) {
     for (int k = 0; k < 3; ++k)
       rgb.push_back(std::uint8_t(std::lround(255 * std::clamp(c[k], 0.0, 1.0))));
   }
-  const std::string temp = path + ".tmp";
-  std::FILE* file = std::fopen(temp.c_str(), "wb");
-  if (file == nullptr) throw RuntimeError("cannot create " + temp);
-  char error[256] = "write error";
-  bool ok = encode_png(file, image.width, image.height, rgb.data(), error);
-  ok = std::fclose(file) == 0 && ok;
-  if (!ok) {
-    std::remove(temp.c_str());
-    throw RuntimeError("cannot write " + path + " (" + error + ")");
-  }
-  if (std::rename(temp.c_str(), path.c_str()) != 0) {
-    std::remove(temp.c_str());
-    throw RuntimeError("cannot rename " + temp + " to " + path);
-  }
+  write_png_rgb(path, image.width, image.height, rgb);
 }
 
 //! Surface and camera shared by every frame of a sequence.
@@ -307,6 +294,28 @@ Scene make_scene(const FrameReader& reader, int width, int height) {
 }
 
 }  // namespace
+
+void write_png_rgb(const std::string& path, int width, int height,
+                   const std::vector<std::uint8_t>& rgb) {
+  if (width <= 0 || height <= 0 || rgb.size() != std::size_t(3) * width * height) {
+    throw RuntimeError("cannot write " + path + " (pixel buffer does not match " +
+                       std::to_string(width) + "x" + std::to_string(height) + ")");
+  }
+  const std::string temp = path + ".tmp";
+  std::FILE* file = std::fopen(temp.c_str(), "wb");
+  if (file == nullptr) throw RuntimeError("cannot create " + temp);
+  char error[256] = "write error";
+  bool ok = encode_png(file, width, height, rgb.data(), error);
+  ok = std::fclose(file) == 0 && ok;
+  if (!ok) {
+    std::remove(temp.c_str());
+    throw RuntimeError("cannot write " + path + " (" + error + ")");
+  }
+  if (std::rename(temp.c_str(), path.c_str()) != 0) {
+    std::remove(temp.c_str());
+    throw RuntimeError("cannot rename " + temp + " to " + path);
+  }
+}
 
 void render_frame_png(const FrameReader& reader, int frame, const std::string& png_path, int width,
                       int height) {

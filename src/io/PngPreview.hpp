@@ -1,6 +1,7 @@
 //! Software-rendered PNG previews of stored frames, to look at a run without a viewer.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -8,6 +9,11 @@
 #include "io/SurfaceIO.hpp"
 
 namespace gen4d::io {
+
+//! Writes 8-bit RGB pixels (3 per pixel, rows top to bottom) as a PNG through a temporary and a
+//! rename, so the name only ever holds a complete image. Throws RuntimeError.
+void write_png_rgb(const std::string& path, int width, int height,
+                   const std::vector<std::uint8_t>& rgb);
 
 //! Renders frame `frame` (position in reader.frames()) of the solid's surface, the faces
 //! between solid voxels and empty space at their deformed node positions, to a width x height

@@ -1,0 +1,1133 @@
+// MPM particle files: checkpoints and frames in id-block layout (HDF5, collective), PLY and
+// OpenVDB point clouds gathered to rank 0, and a depth-shaded PNG reduced to rank 0.
+#include "mpm/ParticleIO.hpp"
+
+#include <fmt/format.h>
+#include <openvdb/openvdb.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <climits>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <mutex>
+#include <numeric>
+#include <sstream>
+
+#include "core/Error.hpp"
+#include "core/Log.hpp"
+#include "io/Checkpoint.hpp"
+#include "io/FrameLayout.hpp"
+#include "io/PngPreview.hpp"
+#include "io/Xdmf.hpp"
+
+namespace gen4d::mpm {
+namespace fs = std::filesystem;
+namespace h5 = io::h5;
+
+namespace {
+
+//! Ids are carried as doubles in the exchanged rows: exact below 2^53.
+constexpr std::int64_t kMaxParticles = std::int64_t(1) << 53;
+
+int comm_rank(MPI_Comm comm) {
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  return rank;
+}
+
+int comm_size(MPI_Comm comm) {
+  int size = 1;
+  MPI_Comm_size(comm, &size);
+  return size;
+}
+
+//! Throws E on every rank with the first failing rank's message ("" everywhere: no throw).
+template <class E>
+void throw_if_any(MPI_Comm comm, const std::string& local_error) {
+  const std::string error = h5::first_error(comm, local_error);
+  if (!error.empty()) throw E(error);
+}
+
+std::string broadcast_string(MPI_Comm comm, std::string text, int root) {
+  unsigned long length = text.size();
+  MPI_Bcast(&length, 1, MPI_UNSIGNED_LONG, root, comm);
+  text.resize(length);
+  MPI_Bcast(text.data(), static_cast<int>(length), MPI_CHAR, root, comm);
+  return text;
+}
+
+//! Why the arrays of `p` disagree in length; "" when they are consistent.
+std::string inconsistent(const Particles& p) {
+  const std::size_t n = p.size();
+  if (p.x.size() != 3 * n || p.v.size() != 3 * n || p.C.size() != 9 * n || p.F.size() != 9 * n ||
+      p.state.size() != kStateSize * n || p.mass.size() != n || p.vol0.size() != n ||
+      p.flag.size() != n) {
+    return "the particle arrays disagree in length";
+  }
+  return "";
+}
+
+// ---- rows exchanged between ranks: `width` doubles, column 0 the particle id ----------------
+
+//! Sends row i of `rows` to rank owner[i] (collective); returns the rows this rank received,
+//! sorted by id (ties keep source-rank order).
+std::vector<double> exchange_rows(MPI_Comm comm, int width, const std::vector<double>& rows,
+                                  const std::vector<int>& owner, const std::string& where) {
+  const int size = comm_size(comm);
+  const std::size_t n = owner.size();
+  const long long limit = INT_MAX / width;  // MPI counts and displacements are ints
+  std::vector<long long> count(size, 0);
+  for (int r : owner) ++count[r];
+  std::vector<int> send_rows(size), recv_rows(size);
+  for (int r = 0; r < size; ++r) send_rows[r] = static_cast<int>(std::min(count[r], limit));
+  MPI_Alltoall(send_rows.data(), 1, MPI_INT, recv_rows.data(), 1, MPI_INT, comm);
+  long long received = 0;
+  for (int r : recv_rows) received += r;
+  std::string error;
+  if (static_cast<long long>(n) > limit || received > limit) {
+    error = where + fmt::format("more than {} particles in one MPI message (rank {})", limit,
+                                comm_rank(comm));
+  }
+  throw_if_any<RuntimeError>(comm, error);
+
+  std::vector<int> scount(size), rcount(size), sdispl(size, 0), rdispl(size, 0);
+  for (int r = 0; r < size; ++r) {
+    scount[r] = send_rows[r] * width;
+    rcount[r] = recv_rows[r] * width;
+    if (r > 0) {
+      sdispl[r] = sdispl[r - 1] + scount[r - 1];
+      rdispl[r] = rdispl[r - 1] + rcount[r - 1];
+    }
+  }
+  std::vector<double> sendbuf(n * width), recvbuf(static_cast<std::size_t>(received) * width);
+  std::vector<int> cursor = sdispl;
+  for (std::size_t i = 0; i < n; ++i) {
+    std::copy_n(&rows[i * width], width, &sendbuf[static_cast<std::size_t>(cursor[owner[i]])]);
+    cursor[owner[i]] += width;
+  }
+  // Some MPI builds reject null buffers even for zero counts.
+  double nothing = 0;
+  MPI_Alltoallv(sendbuf.empty() ? &nothing : sendbuf.data(), scount.data(), sdispl.data(),
+                MPI_DOUBLE, recvbuf.empty() ? &nothing : recvbuf.data(), rcount.data(),
+                rdispl.data(), MPI_DOUBLE, comm);
+
+  const std::size_t m = static_cast<std::size_t>(received);
+  std::vector<std::size_t> order(m);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return recvbuf[a * width] < recvbuf[b * width];
+  });
+  std::vector<double> sorted(recvbuf.size());
+  for (std::size_t k = 0; k < m; ++k)
+    std::copy_n(&recvbuf[order[k] * width], width, &sorted[k * width]);
+  return sorted;
+}
+
+//! This rank's id block with the particles' rows placed at their ids (zeros elsewhere).
+struct DenseBlock {
+  IdBlock block;
+  int width = 0;
+  std::vector<double> rows;
+  std::vector<std::uint8_t> alive;
+};
+
+//! Routes `rows` (one per particle) to the ranks owning their id blocks. Ids outside
+//! 0..total-1 or held twice are RuntimeErrors on every rank.
+DenseBlock to_blocks(MPI_Comm comm, std::int64_t total, int width, const std::vector<double>& rows,
+                     const std::string& where) {
+  const int rank = comm_rank(comm), size = comm_size(comm);
+  const std::size_t n = rows.size() / width;
+  std::vector<int> owner(n, 0);
+  std::string error;
+  for (std::size_t i = 0; i < n && error.empty(); ++i) {
+    const double id = rows[i * width];
+    if (!(id >= 0 && id < static_cast<double>(total))) {
+      error = where + fmt::format("particle id {} is outside 0..{}", id, total - 1);
+    } else {
+      owner[i] = id_block_owner(static_cast<std::int64_t>(id), total, size);
+    }
+  }
+  throw_if_any<RuntimeError>(comm, error);
+  const std::vector<double> sorted = exchange_rows(comm, width, rows, owner, where);
+  DenseBlock dense;
+  dense.block = id_block(total, rank, size);
+  dense.width = width;
+  dense.rows.assign(static_cast<std::size_t>(dense.block.count) * width, 0.0);
+  dense.alive.assign(static_cast<std::size_t>(dense.block.count), 0);
+  for (std::size_t k = 0; k < sorted.size() / width; ++k) {
+    const auto id = static_cast<std::int64_t>(sorted[k * width]);
+    const auto local = static_cast<std::size_t>(id - dense.block.begin);
+    if (dense.alive[local]) {
+      error = where + fmt::format("particle id {} is held twice", id);
+      break;
+    }
+    dense.alive[local] = 1;
+    std::copy_n(&sorted[k * width], width, &dense.rows[local * width]);
+  }
+  throw_if_any<RuntimeError>(comm, error);
+  return dense;
+}
+
+//! Columns [offset, offset + width) of every dense row, as a [count][width] buffer.
+std::vector<double> column(const DenseBlock& b, int offset, int width) {
+  const std::size_t count = b.alive.size();
+  std::vector<double> out(count * width);
+  for (std::size_t i = 0; i < count; ++i)
+    std::copy_n(&b.rows[i * b.width + offset], width, &out[i * width]);
+  return out;
+}
+
+//! Rows of every particle to rank 0, sorted by id.
+std::vector<double> gather_rows(MPI_Comm comm, int width, const std::vector<double>& rows,
+                                const std::string& where) {
+  return exchange_rows(comm, width, rows, std::vector<int>(rows.size() / width, 0), where);
+}
+
+//! Writes `bytes` to `path` through a temporary beside it and a rename; the message on
+//! failure ("" on success).
+std::string write_file_atomically(const std::string& path, const std::string& bytes) {
+  const fs::path final_path(path);
+  const std::string temp =
+      (final_path.parent_path() / ("." + final_path.filename().string() + ".tmp")).string();
+  std::FILE* file = std::fopen(temp.c_str(), "wb");
+  if (file == nullptr) return path + ": cannot create " + temp + ": " + std::strerror(errno);
+  const bool written = std::fwrite(bytes.data(), 1, bytes.size(), file) == bytes.size();
+  const bool closed = std::fclose(file) == 0;
+  if (!written || !closed) {
+    std::remove(temp.c_str());
+    return path + ": cannot write " + temp + " (disk full?)";
+  }
+  if (std::rename(temp.c_str(), path.c_str()) != 0) {
+    const std::string why = std::strerror(errno);
+    std::remove(temp.c_str());
+    return path + ": cannot rename " + temp + ": " + why;
+  }
+  return "";
+}
+
+// ---- checkpoint layout -------------------------------------------------------------------
+
+//! One id-indexed dataset of a checkpoint: columns [offset, offset + width) of a row.
+struct Column {
+  const char* name;
+  int offset;
+  int width;
+  bool byte;  //!< stored as uint8
+};
+
+constexpr int kCheckpointRow = 1 + 3 + 3 + 9 + 9 + kStateSize + 3;
+const Column kCheckpointColumns[] = {{"position", 1, 3, false},
+                                     {"velocity", 4, 3, false},
+                                     {"C", 7, 9, false},
+                                     {"F", 16, 9, false},
+                                     {"state", 25, kStateSize, false},
+                                     {"mass", 25 + kStateSize, 1, false},
+                                     {"volume0", 26 + kStateSize, 1, false},
+                                     {"flag", 27 + kStateSize, 1, true}};
+
+std::vector<double> checkpoint_rows(const Particles& p) {
+  constexpr int W = kCheckpointRow;
+  std::vector<double> rows(p.size() * W);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    double* r = &rows[i * W];
+    r[0] = static_cast<double>(p.id[i]);
+    std::copy_n(&p.x[3 * i], 3, r + 1);
+    std::copy_n(&p.v[3 * i], 3, r + 4);
+    std::copy_n(&p.C[9 * i], 9, r + 7);
+    std::copy_n(&p.F[9 * i], 9, r + 16);
+    std::copy_n(&p.state[kStateSize * i], kStateSize, r + 25);
+    r[25 + kStateSize] = p.mass[i];
+    r[26 + kStateSize] = p.vol0[i];
+    r[27 + kStateSize] = p.flag[i];
+  }
+  return rows;
+}
+
+void write_checkpoint_contents(hid_t file, const ParticleCheckpointState& s,
+                               const DenseBlock& dense) {
+  h5::write_attr(file, "format", std::string(kParticleCheckpointFormat));
+  h5::write_attr(file, "format_version", kParticleCheckpointFormatVersion);
+  h5::write_attr(file, "step", static_cast<long>(s.step));
+  h5::write_attr(file, "time", s.time);
+  h5::write_attr(file, "frame_index", static_cast<long>(s.frame_index));
+  h5::write_attr(file, "next_frame_time", s.next_frame_time);
+  h5::write_attr(file, "particle_count", static_cast<long>(s.total_particles));
+  h5::write_attr(file, "deck", s.deck_text);
+  h5::write_string_list_attr(file, "state_names", s.state_names);
+  h5::Handle extras = h5::create_group(file, "/extras");
+  for (const auto& [name, value] : s.extras) h5::write_attr(extras.get(), name, value);
+  const auto rows = static_cast<hsize_t>(s.total_particles);
+  const auto begin = static_cast<hsize_t>(dense.block.begin);
+  const auto count = static_cast<hsize_t>(dense.block.count);
+  for (const Column& c : kCheckpointColumns) {
+    const std::vector<double> values = column(dense, c.offset, c.width);
+    if (c.byte) {
+      std::vector<std::uint8_t> bytes(values.begin(), values.end());
+      h5::Handle dataset = h5::create_rows_dataset(file, c.name, H5T_STD_U8LE, rows, c.width);
+      h5::write_rows(dataset.get(), H5T_NATIVE_UINT8, begin, count, c.width, bytes.data());
+    } else {
+      h5::Handle dataset = h5::create_rows_dataset(file, c.name, H5T_IEEE_F64LE, rows, c.width);
+      h5::write_rows(dataset.get(), H5T_NATIVE_DOUBLE, begin, count, c.width, values.data());
+    }
+  }
+  h5::Handle alive = h5::create_rows_dataset(file, "alive", H5T_STD_U8LE, rows, 1);
+  h5::write_rows(alive.get(), H5T_NATIVE_UINT8, begin, count, 1, dense.alive.data());
+}
+
+//! Checks the format attributes and every dataset's shape and type; returns N.
+std::int64_t check_checkpoint_layout(hid_t file, const std::string& path) {
+  if (!h5::has_attr(file, "format")) {
+    throw InputError(path + ": not a gen4d MPM checkpoint (no 'format' attribute)");
+  }
+  const std::string format = h5::read_string_attr(file, "format", path);
+  if (format != kParticleCheckpointFormat) {
+    throw InputError(path + ": not a gen4d MPM checkpoint (format is '" + format + "', expected '" +
+                     kParticleCheckpointFormat + "')");
+  }
+  const long version = h5::read_long_attr(file, "format_version", path);
+  if (version != kParticleCheckpointFormatVersion) {
+    throw InputError(path + ": MPM checkpoint format_version " + std::to_string(version) +
+                     " is not supported (expected " +
+                     std::to_string(kParticleCheckpointFormatVersion) + ")");
+  }
+  const long total = h5::read_long_attr(file, "particle_count", path);
+  if (total < 0 || total > kMaxParticles) {
+    throw InputError(path + ": particle_count " + std::to_string(total) + " is out of range");
+  }
+  const auto rows = static_cast<hsize_t>(total);
+  for (const Column& c : kCheckpointColumns) {
+    h5::open_rows_dataset(file, std::string("/") + c.name, c.byte ? H5T_INTEGER : H5T_FLOAT, rows,
+                          c.width, path);
+  }
+  h5::open_rows_dataset(file, "/alive", H5T_INTEGER, rows, 1, path);
+  return total;
+}
+
+ParticleCheckpointMeta read_meta_serial(const std::string& path) {
+  h5::Handle file = h5::open_file_serial(path);
+  ParticleCheckpointMeta meta;
+  meta.total_particles = check_checkpoint_layout(file.get(), path);
+  meta.step = static_cast<int>(h5::read_long_attr(file.get(), "step", path));
+  meta.time = h5::read_double_attr(file.get(), "time", path);
+  meta.frame_index = static_cast<int>(h5::read_long_attr(file.get(), "frame_index", path));
+  meta.next_frame_time = h5::read_double_attr(file.get(), "next_frame_time", path);
+  meta.deck_text = h5::read_string_attr(file.get(), "deck", path);
+  meta.state_names = h5::read_string_list_attr(file.get(), "state_names", path);
+  if (meta.state_names.size() > static_cast<std::size_t>(kStateSize)) {
+    throw InputError(path + fmt::format(": {} state_names, at most {} are supported",
+                                        meta.state_names.size(), kStateSize));
+  }
+  h5::Handle extras = h5::open_group(file.get(), "/extras", h5::Failure::Input, path);
+  for (const std::string& name : h5::attr_names(extras.get())) {
+    meta.extras[name] = h5::read_double_attr(extras.get(), name, path + " /extras");
+  }
+  return meta;
+}
+
+// Byte packing of ParticleCheckpointMeta for the broadcast from rank 0.
+template <class T>
+void put(std::string& buffer, const T& value) {
+  buffer.append(reinterpret_cast<const char*>(&value), sizeof value);
+}
+void put(std::string& buffer, const std::string& text) {
+  put(buffer, text.size());
+  buffer += text;
+}
+struct Unpacker {
+  const std::string& buffer;
+  std::size_t pos = 0;
+  template <class T>
+  void get(T& value) {
+    std::memcpy(&value, buffer.data() + pos, sizeof value);
+    pos += sizeof value;
+  }
+  void get(std::string& text) {
+    std::size_t n = 0;
+    get(n);
+    text = buffer.substr(pos, n);
+    pos += n;
+  }
+};
+
+std::string pack(const ParticleCheckpointMeta& m) {
+  std::string buffer;
+  put(buffer, m.step);
+  put(buffer, m.time);
+  put(buffer, m.frame_index);
+  put(buffer, m.next_frame_time);
+  put(buffer, m.total_particles);
+  put(buffer, m.deck_text);
+  put(buffer, m.state_names.size());
+  for (const std::string& name : m.state_names) put(buffer, name);
+  put(buffer, m.extras.size());
+  for (const auto& [name, value] : m.extras) {
+    put(buffer, name);
+    put(buffer, value);
+  }
+  return buffer;
+}
+
+ParticleCheckpointMeta unpack(const std::string& buffer) {
+  ParticleCheckpointMeta m;
+  Unpacker in{buffer};
+  in.get(m.step);
+  in.get(m.time);
+  in.get(m.frame_index);
+  in.get(m.next_frame_time);
+  in.get(m.total_particles);
+  in.get(m.deck_text);
+  std::size_t count = 0;
+  in.get(count);
+  m.state_names.resize(count);
+  for (std::string& name : m.state_names) in.get(name);
+  in.get(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    std::string name;
+    double value = 0;
+    in.get(name);
+    in.get(value);
+    m.extras[name] = value;
+  }
+  return m;
+}
+
+//! Reads this rank's block of every dataset (collective) and keeps the alive particles, sorted
+//! by id. InputError for a non-finite value of an alive particle, after every read.
+Particles read_block(hid_t file, const std::string& path, std::int64_t total, const IdBlock& b) {
+  const auto rows = static_cast<hsize_t>(total);
+  const auto begin = static_cast<hsize_t>(b.begin);
+  const auto count = static_cast<std::size_t>(b.count);
+  std::vector<std::uint8_t> alive(count);
+  {
+    h5::Handle dataset = h5::open_rows_dataset(file, "/alive", H5T_INTEGER, rows, 1, path);
+    h5::read_rows(dataset.get(), H5T_NATIVE_UINT8, begin, count, 1, alive.data(),
+                  path + ": cannot read dataset /alive");
+  }
+  std::vector<double> dense(count * kCheckpointRow, 0.0);
+  // Reported after the last read: every rank must join every collective read.
+  std::string bad_value;
+  for (const Column& c : kCheckpointColumns) {
+    const std::string name = std::string("/") + c.name;
+    h5::Handle dataset =
+        h5::open_rows_dataset(file, name, c.byte ? H5T_INTEGER : H5T_FLOAT, rows, c.width, path);
+    const std::string what = path + ": cannot read dataset " + name;
+    std::vector<double> values(count * c.width);
+    if (c.byte) {
+      std::vector<std::uint8_t> bytes(count);
+      h5::read_rows(dataset.get(), H5T_NATIVE_UINT8, begin, count, 1, bytes.data(), what);
+      std::copy(bytes.begin(), bytes.end(), values.begin());
+    } else {
+      h5::read_rows(dataset.get(), H5T_NATIVE_DOUBLE, begin, count, c.width, values.data(), what);
+      for (std::size_t i = 0; i < count; ++i) {
+        for (int k = 0; k < c.width; ++k) {
+          if (alive[i] && !std::isfinite(values[i * c.width + k]) && bad_value.empty()) {
+            bad_value = path + fmt::format(
+                                   ": dataset {} holds a non-finite value ({}) for "
+                                   "alive particle id {}",
+                                   name, values[i * c.width + k], b.begin + i);
+          }
+        }
+      }
+    }
+    for (std::size_t i = 0; i < count; ++i)
+      std::copy_n(&values[i * c.width], c.width, &dense[i * kCheckpointRow + c.offset]);
+  }
+  if (!bad_value.empty()) throw InputError(bad_value);
+  Particles p;
+  std::size_t n = 0;
+  for (std::uint8_t a : alive) n += a != 0;
+  p.reserve(n);
+  for (std::size_t i = 0; i < count; ++i) {
+    if (!alive[i]) continue;
+    const double* r = &dense[i * kCheckpointRow];
+    p.id.push_back(b.begin + static_cast<std::int64_t>(i));
+    p.x.insert(p.x.end(), r + 1, r + 4);
+    p.v.insert(p.v.end(), r + 4, r + 7);
+    p.C.insert(p.C.end(), r + 7, r + 16);
+    p.F.insert(p.F.end(), r + 16, r + 25);
+    p.state.insert(p.state.end(), r + 25, r + 25 + kStateSize);
+    p.mass.push_back(r[25 + kStateSize]);
+    p.vol0.push_back(r[26 + kStateSize]);
+    p.flag.push_back(static_cast<std::uint8_t>(r[27 + kStateSize]));
+  }
+  return p;
+}
+
+// ---- frames --------------------------------------------------------------------------------
+
+const char* const kFrameReserved[] = {"position", "velocity", "alive"};
+const char* const kRootReserved[] = {"format", "format_version", "particle_count"};
+
+template <std::size_t N>
+bool one_of(const std::string& name, const char* const (&list)[N]) {
+  return std::find(std::begin(list), std::end(list), name) != std::end(list);
+}
+
+//! Why `name` cannot name a scalar field; "" when it can.
+std::string field_name_problem(const std::string& name) {
+  if (name.empty()) return "a scalar field has an empty name";
+  for (unsigned char c : name) {
+    if (!std::isalnum(c) && c != '_' && c != '-' && c != '.') {
+      return "scalar field name '" + name + "' may use only letters, digits, '_', '-' and '.'";
+    }
+  }
+  if (name == "." || name == "..") return "scalar field name '" + name + "' is not allowed";
+  if (one_of(name, kFrameReserved)) return "scalar field name '" + name + "' is reserved";
+  return "";
+}
+
+bool all_digits(const std::string& s) {
+  return !s.empty() &&
+         std::all_of(s.begin(), s.end(), [](unsigned char c) { return std::isdigit(c); });
+}
+
+std::string xml_escaped(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+std::vector<ParticleFrameInfo> list_particle_frames(hid_t file, const std::string& path) {
+  std::vector<ParticleFrameInfo> frames;
+  if (!h5::link_exists(file, io::kFramesGroup)) return frames;
+  h5::Handle group = h5::open_group(file, io::kFramesGroup, h5::Failure::Input, path);
+  std::vector<std::string> names;
+  H5L_iterate_t collect = [](hid_t, const char* name, const auto*, void* out) -> herr_t {
+    static_cast<std::vector<std::string>*>(out)->emplace_back(name);
+    return 0;
+  };
+  h5::check(H5Literate(group.get(), H5_INDEX_NAME, H5_ITER_INC, nullptr, collect, &names),
+            h5::Failure::Input, path + ": cannot list " + io::kFramesGroup);
+  for (const std::string& name : names) {
+    if (!all_digits(name) || name.size() > 9) {
+      throw InputError(path + ": unexpected entry " + io::kFramesGroup + "/" + name);
+    }
+    ParticleFrameInfo info;
+    info.index = std::stoi(name);
+    h5::Handle frame = h5::open_group(group.get(), name, h5::Failure::Input, path);
+    const std::string where = path + " " + io::kFramesGroup + "/" + name;
+    info.time = h5::read_double_attr(frame.get(), "time", where);
+    info.step = static_cast<int>(h5::read_long_attr(frame.get(), "step", where));
+    info.fields = h5::read_string_list_attr(frame.get(), "fields", where);
+    frames.push_back(info);
+  }
+  std::sort(
+      frames.begin(), frames.end(),
+      [](const ParticleFrameInfo& a, const ParticleFrameInfo& b) { return a.index < b.index; });
+  return frames;
+}
+
+// ---- OpenVDB -------------------------------------------------------------------------------
+
+void initialize_openvdb_once() {
+  static std::once_flag flag;
+  std::call_once(flag, [] { openvdb::initialize(); });
+}
+
+//! Splats rows (id, x, v, mass) and writes the grids to `path`; the message on failure.
+std::string write_vdb_serial(const std::string& path, const std::vector<double>& rows, int width,
+                             double h) {
+  initialize_openvdb_once();
+  auto mass = openvdb::DoubleGrid::create(0.0);
+  auto momentum = openvdb::Vec3DGrid::create(openvdb::Vec3d(0.0));
+  auto mass_acc = mass->getAccessor();
+  auto mom_acc = momentum->getAccessor();
+  const std::size_t n = rows.size() / width;
+  std::size_t skipped = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double* r = &rows[i * width];
+    const double m = r[7];
+    double q[3];
+    bool ok = std::isfinite(m);
+    for (int a = 0; a < 3; ++a) {
+      q[a] = r[1 + a] / h;
+      ok = ok && std::isfinite(q[a]) && std::abs(q[a]) < 1e9 && std::isfinite(r[4 + a]);
+    }
+    if (!ok) {
+      ++skipped;
+      continue;
+    }
+    const openvdb::Coord base(static_cast<int>(std::floor(q[0])),
+                              static_cast<int>(std::floor(q[1])),
+                              static_cast<int>(std::floor(q[2])));
+    double f[3];
+    for (int a = 0; a < 3; ++a) f[a] = q[a] - std::floor(q[a]);
+    for (int corner = 0; corner < 8; ++corner) {
+      double w = 1;
+      openvdb::Coord c = base;
+      for (int a = 0; a < 3; ++a) {
+        const bool up = (corner >> a) & 1;
+        w *= up ? f[a] : 1.0 - f[a];
+        if (up) c[a] += 1;
+      }
+      if (w == 0) continue;
+      mass_acc.setValue(c, mass_acc.getValue(c) + w * m);
+      mom_acc.setValue(c, mom_acc.getValue(c) + openvdb::Vec3d(r[4], r[5], r[6]) * (w * m));
+    }
+  }
+  if (skipped > 0) {
+    log::warn("{}: {} particle(s) with a non-finite or far-off position left out", path, skipped);
+  }
+  const auto transform = openvdb::math::Transform::createLinearTransform(h);
+  auto density = openvdb::FloatGrid::create(0.0f);
+  auto velocity = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
+  auto density_acc = density->getAccessor();
+  auto velocity_acc = velocity->getAccessor();
+  const double cell_volume = h * h * h;
+  for (auto it = mass->cbeginValueOn(); it; ++it) {
+    const openvdb::Coord c = it.getCoord();
+    const double m = *it;
+    density_acc.setValue(c, static_cast<float>(m / cell_volume));
+    const openvdb::Vec3d v = m != 0 ? mom_acc.getValue(c) / m : openvdb::Vec3d(0.0);
+    velocity_acc.setValue(c, openvdb::Vec3s(static_cast<float>(v[0]), static_cast<float>(v[1]),
+                                            static_cast<float>(v[2])));
+  }
+  density->setName("density");
+  density->setGridClass(openvdb::GRID_FOG_VOLUME);
+  density->setTransform(transform);
+  density->insertMeta("particle_count", openvdb::Int64Metadata(static_cast<std::int64_t>(n)));
+  velocity->setName("velocity");
+  velocity->setVectorType(openvdb::VEC_CONTRAVARIANT_RELATIVE);
+  velocity->setTransform(transform->copy());
+  openvdb::GridPtrVec grids{density, velocity};
+  openvdb::MetaMap file_meta;
+  file_meta.insertMeta("creator", openvdb::StringMetadata("gen4d"));
+
+  const fs::path final_path(path);
+  const std::string temp =
+      (final_path.parent_path() / ("." + final_path.filename().string() + ".tmp")).string();
+  try {
+    openvdb::io::File file(temp);
+    file.write(grids, file_meta);
+    file.close();
+  } catch (const std::exception& e) {
+    std::remove(temp.c_str());
+    std::string what = e.what();
+    std::replace(what.begin(), what.end(), '\n', ' ');
+    return path + ": cannot write " + temp + ": " + what;
+  }
+  if (std::rename(temp.c_str(), path.c_str()) != 0) {
+    const std::string why = std::strerror(errno);
+    std::remove(temp.c_str());
+    return path + ": cannot rename " + temp + ": " + why;
+  }
+  return "";
+}
+
+}  // namespace
+
+// ---- id blocks ---------------------------------------------------------------------------------
+
+IdBlock id_block(std::int64_t total, int rank, int size) {
+  const auto edge = [&](int r) {
+    return static_cast<std::int64_t>(static_cast<__int128>(total) * r / size);
+  };
+  return {edge(rank), edge(rank + 1) - edge(rank)};
+}
+
+int id_block_owner(std::int64_t id, std::int64_t total, int size) {
+  auto r = static_cast<int>(static_cast<__int128>(id) * size / total);
+  // Block r starts at floor(r total / size) <= id; a later block may start at id too.
+  while (r + 1 < size && id_block(total, r + 1, size).begin <= id) ++r;
+  return r;
+}
+
+// ---- checkpoints ---------------------------------------------------------------------------
+
+std::string write_particle_checkpoint(MPI_Comm comm, const std::string& dir,
+                                      const ParticleCheckpointState& state, int keep) {
+  const int rank = comm_rank(comm);
+  const std::string final_path = io::checkpoint_path(dir, state.step);
+  const std::string temp_path =
+      (fs::path(dir) / fmt::format(".checkpoint_{:08d}.h5.tmp", state.step)).string();
+  std::string error;
+  if (state.particles == nullptr) {
+    error = final_path + ": no particles given";
+  } else if (state.total_particles < 0 || state.total_particles > kMaxParticles) {
+    error = final_path + fmt::format(": particle count {} is out of range", state.total_particles);
+  } else if (state.state_names.size() > static_cast<std::size_t>(kStateSize)) {
+    error = final_path +
+            fmt::format(": {} state names, at most {}", state.state_names.size(), kStateSize);
+  } else if (std::string why = inconsistent(*state.particles); !why.empty()) {
+    error = final_path + ": " + why;
+  }
+  std::error_code ec;
+  if (rank == 0 && error.empty() && !fs::is_directory(dir, ec) &&
+      !fs::create_directories(dir, ec)) {
+    error = dir + ": cannot create the checkpoint directory (" + ec.message() + ")";
+  }
+  throw_if_any<RuntimeError>(comm, error);
+  const DenseBlock dense = to_blocks(comm, state.total_particles, kCheckpointRow,
+                                     checkpoint_rows(*state.particles), final_path + ": ");
+  try {
+    h5::Handle file = h5::create_file(comm, temp_path);
+    write_checkpoint_contents(file.get(), state, dense);
+    file.close(h5::Failure::Runtime, "cannot finish the file");
+  } catch (const std::exception& e) {
+    error = temp_path + ": " + e.what();
+  }
+  error = h5::first_error(comm, error);
+  if (rank == 0) {
+    if (error.empty() && std::rename(temp_path.c_str(), final_path.c_str()) != 0) {
+      error = "cannot rename " + temp_path + " to " + final_path + ": " + std::strerror(errno);
+    }
+    if (error.empty()) {
+      io::prune_checkpoints(dir, keep);
+    } else {
+      std::remove(temp_path.c_str());
+    }
+  }
+  // Also the barrier after which every rank sees the renamed file.
+  throw_if_any<RuntimeError>(comm, error);
+  return final_path;
+}
+
+ParticleCheckpointMeta read_particle_checkpoint_meta(MPI_Comm comm, const std::string& path) {
+  h5::silence_errors();
+  std::string packed, error;
+  if (comm_rank(comm) == 0) {
+    try {
+      packed = pack(read_meta_serial(path));
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
+  throw_if_any<InputError>(comm, error);
+  return unpack(broadcast_string(comm, packed, 0));
+}
+
+ParticleCheckpointMeta read_particle_checkpoint(MPI_Comm comm, const std::string& path,
+                                                Particles& particles) {
+  ParticleCheckpointMeta meta = read_particle_checkpoint_meta(comm, path);
+  std::string error;
+  h5::Handle file;
+  try {
+    file = h5::open_file(comm, path, false);
+    if (check_checkpoint_layout(file.get(), path) != meta.total_particles) {
+      error = path + ": the file changed while it was read";
+    }
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  throw_if_any<InputError>(comm, error);
+  Particles read;
+  try {
+    const IdBlock block = id_block(meta.total_particles, comm_rank(comm), comm_size(comm));
+    read = read_block(file.get(), path, meta.total_particles, block);
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  // Closing is collective: every rank closes, also one whose block was bad.
+  try {
+    file.close(h5::Failure::Input, path + ": cannot close");
+  } catch (const std::exception& e) {
+    if (error.empty()) error = e.what();
+  }
+  throw_if_any<InputError>(comm, error);
+  std::swap(particles, read);
+  return meta;
+}
+
+// ---- frames --------------------------------------------------------------------------------
+
+ParticleFrameWriter::ParticleFrameWriter(MPI_Comm comm, const std::string& h5_path,
+                                         io::h5::Handle file, std::int64_t total)
+    : comm_(comm),
+      path_(h5_path),
+      xdmf_path_(io::xdmf_path_for(h5_path)),
+      file_(std::move(file)),
+      total_(total) {
+  MPI_Comm_rank(comm_, &rank_);
+}
+
+ParticleFrameWriter::ParticleFrameWriter(MPI_Comm comm, const std::string& h5_path,
+                                         std::int64_t total_particles,
+                                         const std::map<std::string, std::string>& attributes)
+    : ParticleFrameWriter(comm, h5_path, io::h5::Handle(), total_particles) {
+  if (total_particles < 0 || total_particles > kMaxParticles) {
+    throw RuntimeError(h5_path +
+                       fmt::format(": particle count {} is out of range", total_particles));
+  }
+  for (const auto& entry : attributes) {
+    if (one_of(entry.first, kRootReserved)) {
+      throw RuntimeError(h5_path + ": attribute '" + entry.first + "' is reserved");
+    }
+  }
+  std::string error;
+  try {
+    file_ = h5::create_file(comm, h5_path);
+    for (const auto& [name, value] : attributes) h5::write_attr(file_.get(), name, value);
+    h5::write_attr(file_.get(), "format", std::string(kParticleFramesFormat));
+    h5::write_attr(file_.get(), "format_version", kParticleFramesFormatVersion);
+    h5::write_attr(file_.get(), "particle_count", static_cast<long>(total_particles));
+    h5::create_group(file_.get(), io::kFramesGroup);
+  } catch (const std::exception& e) {
+    error = h5_path + ": " + e.what();
+  }
+  raise_if_any(error);
+  flush();
+  update_index();
+}
+
+ParticleFrameWriter ParticleFrameWriter::open_append(MPI_Comm comm, const std::string& h5_path,
+                                                     int keep_up_to_step) {
+  std::string error;
+  h5::Handle file;
+  std::int64_t total = 0;
+  std::vector<ParticleFrameInfo> stored;
+  try {
+    file = h5::open_file(comm, h5_path, true);
+    if (!h5::has_attr(file.get(), "format")) {
+      throw InputError(h5_path + ": not a gen4d particle frames file (no 'format' attribute)");
+    }
+    const std::string format = h5::read_string_attr(file.get(), "format", h5_path);
+    if (format != kParticleFramesFormat) {
+      throw InputError(h5_path + ": format is '" + format + "', expected '" +
+                       kParticleFramesFormat + "'");
+    }
+    const long version = h5::read_long_attr(file.get(), "format_version", h5_path);
+    if (version != kParticleFramesFormatVersion) {
+      throw InputError(h5_path + ": format_version " + std::to_string(version) +
+                       " is not supported (expected " +
+                       std::to_string(kParticleFramesFormatVersion) + ")");
+    }
+    total = h5::read_long_attr(file.get(), "particle_count", h5_path);
+    if (total < 0 || total > kMaxParticles) {
+      throw InputError(h5_path + ": particle_count " + std::to_string(total) + " is out of range");
+    }
+    stored = list_particle_frames(file.get(), h5_path);
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  throw_if_any<InputError>(comm, error);
+  ParticleFrameWriter writer(comm, h5_path, std::move(file), total);
+  if (!h5::link_exists(writer.file_.get(), io::kFramesGroup)) {
+    h5::create_group(writer.file_.get(), io::kFramesGroup);
+  }
+  for (const ParticleFrameInfo& frame : stored) {
+    if (frame.step <= keep_up_to_step) {
+      writer.frames_.push_back(frame);
+    } else {
+      // Unlinking is collective metadata work, identical on every rank.
+      const std::string group = io::frame_group(frame.index);
+      h5::check(H5Ldelete(writer.file_.get(), group.c_str(), H5P_DEFAULT), h5::Failure::Runtime,
+                h5_path + ": cannot delete " + group);
+    }
+  }
+  writer.flush();
+  writer.update_index();
+  return writer;
+}
+
+void ParticleFrameWriter::raise_if_any(const std::string& local_error) const {
+  throw_if_any<RuntimeError>(comm_, local_error);
+}
+
+void ParticleFrameWriter::flush() {
+  h5::check(H5Fflush(file_.get(), H5F_SCOPE_GLOBAL), h5::Failure::Runtime,
+            path_ + ": cannot flush");
+}
+
+void ParticleFrameWriter::update_index() {
+  std::string error;
+  if (rank_ == 0) {
+    try {
+      const std::string h5_name = fs::path(path_).filename().string();
+      io::write_text_atomically(xdmf_path_, particle_xdmf_text(h5_name, total_, frames_));
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
+  raise_if_any(error);
+}
+
+void ParticleFrameWriter::write_frame(double time, int step, const Particles& particles,
+                                      const std::vector<ParticleScalar>& fields) {
+  const std::string where = path_ + fmt::format(": frame at step {}: ", step);
+  std::string error = inconsistent(particles);
+  std::vector<std::string> names;
+  for (const ParticleScalar& f : fields) {
+    if (!error.empty()) break;
+    error = field_name_problem(f.name);
+    if (error.empty() && std::find(names.begin(), names.end(), f.name) != names.end()) {
+      error = "scalar field '" + f.name + "' is given twice";
+    }
+    if (error.empty() && f.values == nullptr && particles.size() > 0) {
+      error = "scalar field '" + f.name + "' has no values";
+    }
+    names.push_back(f.name);
+  }
+  raise_if_any(error.empty() ? "" : where + error);
+  std::string joined;
+  for (const std::string& name : names) joined += name + "\n";
+  if (broadcast_string(comm_, joined, 0) != joined) {
+    error = where + "the scalar fields differ between ranks";
+  }
+  raise_if_any(error);
+
+  const int nf = static_cast<int>(fields.size());
+  const int width = 7 + nf;
+  std::vector<double> rows(particles.size() * width);
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    double* r = &rows[i * width];
+    r[0] = static_cast<double>(particles.id[i]);
+    std::copy_n(&particles.x[3 * i], 3, r + 1);
+    std::copy_n(&particles.v[3 * i], 3, r + 4);
+    for (int f = 0; f < nf; ++f) r[7 + f] = fields[f].values[i];
+  }
+  const DenseBlock dense = to_blocks(comm_, total_, width, rows, where);
+
+  const int index = frames_.empty() ? 0 : frames_.back().index + 1;
+  const std::string group_name = io::frame_group(index);
+  const auto n = static_cast<hsize_t>(total_);
+  const auto begin = static_cast<hsize_t>(dense.block.begin);
+  const auto count = static_cast<hsize_t>(dense.block.count);
+  try {
+    h5::Handle group = h5::create_group(file_.get(), group_name);
+    h5::write_attr(group.get(), "time", time);
+    h5::write_attr(group.get(), "step", static_cast<long>(step));
+    h5::write_string_list_attr(group.get(), "fields", names);
+    for (const char* name : {"position", "velocity"}) {
+      const std::vector<double> values = column(dense, name[0] == 'p' ? 1 : 4, 3);
+      h5::Handle dataset = h5::create_rows_dataset(group.get(), name, H5T_IEEE_F64LE, n, 3);
+      h5::write_rows(dataset.get(), H5T_NATIVE_DOUBLE, begin, count, 3, values.data());
+    }
+    h5::Handle alive = h5::create_rows_dataset(group.get(), "alive", H5T_STD_U8LE, n, 1);
+    h5::write_rows(alive.get(), H5T_NATIVE_UINT8, begin, count, 1, dense.alive.data());
+    for (int f = 0; f < nf; ++f) {
+      const std::vector<double> values = column(dense, 7 + f, 1);
+      h5::Handle dataset = h5::create_rows_dataset(group.get(), names[f], H5T_IEEE_F64LE, n, 1);
+      h5::write_rows(dataset.get(), H5T_NATIVE_DOUBLE, begin, count, 1, values.data());
+    }
+  } catch (const std::exception& e) {
+    error = where + e.what();
+  }
+  error = h5::first_error(comm_, error);
+  if (!error.empty()) {
+    // Drop the partial group so the file holds only complete frames.
+    if (h5::link_exists(file_.get(), group_name)) {
+      H5Ldelete(file_.get(), group_name.c_str(), H5P_DEFAULT);
+    }
+    throw RuntimeError(error);
+  }
+  frames_.push_back({index, step, time, names});
+  flush();
+  update_index();
+}
+
+void ParticleFrameWriter::close() {
+  file_.close(h5::Failure::Runtime, path_ + ": cannot close");
+}
+
+std::string particle_xdmf_text(const std::string& h5_name, std::int64_t total_particles,
+                               const std::vector<ParticleFrameInfo>& frames) {
+  const std::string file = xml_escaped(h5_name);
+  const std::string n = std::to_string(total_particles);
+  auto data_item = [&](std::ostream& out, const std::string& dims, const char* number_type,
+                       int precision, const std::string& source) {
+    out << "        <DataItem Dimensions=\"" << dims << "\" NumberType=\"" << number_type
+        << "\" Precision=\"" << precision << "\" Format=\"HDF\">" << file << ":" << source
+        << "</DataItem>\n";
+  };
+  std::ostringstream out;
+  out.precision(17);  // times round-trip exactly
+  out << "<?xml version=\"1.0\" ?>\n"
+      << "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
+      << "<Xdmf Version=\"2.0\">\n"
+      << "  <Domain>\n"
+      << "    <Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (const ParticleFrameInfo& frame : frames) {
+    const std::string group = io::frame_group(frame.index);
+    out << "    <Grid Name=\"frame_" << frame.index << "\" GridType=\"Uniform\">\n"
+        << "      <Time Value=\"" << frame.time << "\"/>\n"
+        << "      <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n
+        << "\" NodesPerElement=\"1\"/>\n"
+        << "      <Geometry GeometryType=\"XYZ\">\n";
+    data_item(out, n + " 3", "Float", 8, group + "/position");
+    out << "      </Geometry>\n"
+        << "      <Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Node\">\n";
+    data_item(out, n + " 3", "Float", 8, group + "/velocity");
+    out << "      </Attribute>\n"
+        << "      <Attribute Name=\"alive\" AttributeType=\"Scalar\" Center=\"Node\">\n";
+    data_item(out, n, "UChar", 1, group + "/alive");
+    out << "      </Attribute>\n";
+    for (const std::string& field : frame.fields) {
+      out << "      <Attribute Name=\"" << xml_escaped(field)
+          << "\" AttributeType=\"Scalar\" Center=\"Node\">\n";
+      data_item(out, n, "Float", 8, group + "/" + field);
+      out << "      </Attribute>\n";
+    }
+    out << "    </Grid>\n";
+  }
+  out << "    </Grid>\n"
+      << "  </Domain>\n"
+      << "</Xdmf>\n";
+  return out.str();
+}
+
+// ---- point clouds and images ---------------------------------------------------------------
+
+void write_particle_ply(MPI_Comm comm, const std::string& path, const Particles& particles) {
+  std::string error = inconsistent(particles);
+  throw_if_any<RuntimeError>(comm, error.empty() ? "" : path + ": " + error);
+  constexpr int W = 7;
+  std::vector<double> rows(particles.size() * W);
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    rows[i * W] = static_cast<double>(particles.id[i]);
+    std::copy_n(&particles.x[3 * i], 3, &rows[i * W + 1]);
+    std::copy_n(&particles.v[3 * i], 3, &rows[i * W + 4]);
+  }
+  const std::vector<double> all = gather_rows(comm, W, rows, path + ": ");
+  if (comm_rank(comm) == 0) {
+    const std::size_t n = all.size() / W;
+    std::string bytes = fmt::format(
+        "ply\nformat binary_little_endian 1.0\ncomment gen4d MPM particles in id order\n"
+        "element vertex {}\nproperty float x\nproperty float y\nproperty float z\n"
+        "property float vx\nproperty float vy\nproperty float vz\nend_header\n",
+        n);
+    const std::size_t header = bytes.size();
+    bytes.resize(header + n * 6 * sizeof(float));
+    char* out = &bytes[header];
+    for (std::size_t i = 0; i < n; ++i) {
+      for (int k = 0; k < 6; ++k) {
+        const float value = static_cast<float>(all[i * W + 1 + k]);
+        unsigned char le[4];
+        std::uint32_t u = 0;
+        std::memcpy(&u, &value, 4);
+        for (int b = 0; b < 4; ++b) le[b] = static_cast<unsigned char>(u >> (8 * b));
+        std::memcpy(out, le, 4);
+        out += 4;
+      }
+    }
+    error = write_file_atomically(path, bytes);
+  }
+  throw_if_any<RuntimeError>(comm, error);
+}
+
+void write_particle_vdb(MPI_Comm comm, const std::string& path, const Particles& particles,
+                        double voxel_size) {
+  if (!(voxel_size > 0) || !std::isfinite(voxel_size)) {
+    throw InputError(path + fmt::format(": VDB voxel size must be positive, got {}", voxel_size));
+  }
+  std::string error = inconsistent(particles);
+  throw_if_any<RuntimeError>(comm, error.empty() ? "" : path + ": " + error);
+  constexpr int W = 8;
+  std::vector<double> rows(particles.size() * W);
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    rows[i * W] = static_cast<double>(particles.id[i]);
+    std::copy_n(&particles.x[3 * i], 3, &rows[i * W + 1]);
+    std::copy_n(&particles.v[3 * i], 3, &rows[i * W + 4]);
+    rows[i * W + 7] = particles.mass[i];
+  }
+  // Sorted by id, so the file does not depend on how the particles were distributed.
+  const std::vector<double> all = gather_rows(comm, W, rows, path + ": ");
+  if (comm_rank(comm) == 0) {
+    try {
+      error = write_vdb_serial(path, all, W, voxel_size);
+    } catch (const std::exception& e) {
+      error = path + ": " + e.what();
+    }
+  }
+  throw_if_any<RuntimeError>(comm, error);
+}
+
+void write_particle_png(MPI_Comm comm, const std::string& path, const Particles& particles,
+                        const ParticleView& view) {
+  if (view.axis < 0 || view.axis > 2) {
+    throw InputError(path + fmt::format(": view axis must be 0, 1 or 2, got {}", view.axis));
+  }
+  if (view.width <= 0 || view.height <= 0 || view.width > 16384 || view.height > 16384) {
+    throw InputError(path + fmt::format(": image size {}x{} must be between 1 and 16384 pixels "
+                                        "per side",
+                                        view.width, view.height));
+  }
+  if (view.point_radius < 0 || view.point_radius > 64) {
+    throw InputError(path + fmt::format(": point radius {} must be 0..64", view.point_radius));
+  }
+  for (int a = 0; a < 3; ++a) {
+    if (!(view.lo[a] <= view.hi[a]) || !std::isfinite(view.lo[a]) || !std::isfinite(view.hi[a])) {
+      throw InputError(path + ": the view box must have finite lo <= hi on every axis");
+    }
+  }
+  const int right = view.axis == 0 ? 1 : 0, up = view.axis == 2 ? 1 : 2, depth = view.axis;
+  const double extent_r = view.hi[right] - view.lo[right], extent_u = view.hi[up] - view.lo[up];
+  if (!(extent_r > 0) || !(extent_u > 0)) {
+    throw InputError(path + ": the view box is flat across the image");
+  }
+  std::string error = inconsistent(particles);
+  throw_if_any<RuntimeError>(comm, error.empty() ? "" : path + ": " + error);
+
+  const int width = view.width, height = view.height;
+  const double scale = std::min(width / extent_r, height / extent_u);
+  const double margin_x = 0.5 * (width - scale * extent_r);
+  const double margin_y = 0.5 * (height - scale * extent_u);
+  const double extent_d = view.hi[depth] - view.lo[depth];
+  // Per pixel: 0 = empty, else 0.05 + 0.95 nearness (1 = nearest face of the box).
+  std::vector<float> near(static_cast<std::size_t>(width) * height, 0.0f);
+  const int radius = view.point_radius;
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    const double* p = &particles.x[3 * i];
+    bool inside = true;
+    for (int a = 0; a < 3; ++a) inside = inside && p[a] >= view.lo[a] && p[a] <= view.hi[a];
+    if (!inside) continue;
+    const double t = extent_d > 0 ? (p[depth] - view.lo[depth]) / extent_d : 0.5;
+    const double nearness = view.axis == 1 ? 1.0 - t : t;
+    const auto key = static_cast<float>(0.05 + 0.95 * nearness);
+    const int px = static_cast<int>(std::floor(margin_x + scale * (p[right] - view.lo[right])));
+    const int py =
+        height - 1 - static_cast<int>(std::floor(margin_y + scale * (p[up] - view.lo[up])));
+    for (int dy = -radius; dy <= radius; ++dy) {
+      for (int dx = -radius; dx <= radius; ++dx) {
+        if (dx * dx + dy * dy > radius * radius) continue;
+        const int x = px + dx, y = py + dy;
+        if (x < 0 || x >= width || y < 0 || y >= height) continue;
+        float& slot = near[static_cast<std::size_t>(y) * width + x];
+        slot = std::max(slot, key);
+      }
+    }
+  }
+  const int rank = comm_rank(comm);
+  std::vector<float> merged(rank == 0 ? near.size() : 0);
+  MPI_Reduce(near.data(), rank == 0 ? merged.data() : nullptr, static_cast<int>(near.size()),
+             MPI_FLOAT, MPI_MAX, 0, comm);
+  if (rank == 0) {
+    std::vector<std::uint8_t> rgb(3 * merged.size());
+    const double background[3] = {0.11, 0.12, 0.14}, base[3] = {0.98, 0.66, 0.32};
+    for (std::size_t k = 0; k < merged.size(); ++k) {
+      for (int c = 0; c < 3; ++c) {
+        const double value =
+            merged[k] > 0 ? base[c] * (0.25 + 0.75 * (merged[k] - 0.05) / 0.95) : background[c];
+        rgb[3 * k + c] = static_cast<std::uint8_t>(std::lround(255 * std::clamp(value, 0.0, 1.0)));
+      }
+    }
+    try {
+      io::write_png_rgb(path, width, height, rgb);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
+  throw_if_any<RuntimeError>(comm, error);
+}
+
+}  // namespace gen4d::mpm
