@@ -228,18 +228,25 @@ TEST(MpmSolver, FreeFallFollowsGravity) {
 }
 
 TEST(MpmSolver, StickyFloorStopsTheBody) {
-  Scene s{"fixed_corotated", {}, {plane("sticky", {0, 0, 0.1}, {0, 0, 1})}, {0, 0, -1}};
+  // The block slides at 1 m/s while falling onto a sticky plane 0.1 m below it.
+  Scene s{"fixed_corotated", {}, {plane("sticky", {0, 0, -0.1}, {0, 0, 1})}, {1, 0, -1}};
   auto solver = make(MPI_COMM_WORLD, s);
   double t = 0;
-  run(*solver, 60, t);
+  run(*solver, 80, t);
   const auto& p = solver->particles();
-  double lowest = 1e9, slide = 0;
+  double lowest = 1e9, slide[2] = {0, 0};
   for (std::size_t i = 0; i < p.size(); ++i) {
     lowest = std::min(lowest, p.x[3 * i + 2]);
-    if (p.x[3 * i + 2] < 0.12) slide = std::max(slide, std::hypot(p.v[3 * i], p.v[3 * i + 1]));
+    if (p.x[3 * i + 2] < -0.1 + 0.03) {
+      slide[0] += p.v[3 * i];
+      slide[1] += 1;
+    }
   }
   MPI_Allreduce(MPI_IN_PLACE, &lowest, 1, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
-  EXPECT_GT(lowest, 0.1 - 0.05);  // within a cell of the plane, never through it
+  MPI_Allreduce(MPI_IN_PLACE, slide, 2, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+  ASSERT_GT(slide[1], 0);            // the block reached the plane
+  EXPECT_GT(lowest, -0.1 - 0.05);    // within a cell of the plane, never through it
+  EXPECT_LT(std::abs(slide[0] / slide[1]), 0.3);  // the contact layer no longer slides
 }
 
 TEST(MpmSolver, ParticlesLeavingTheGridAreClampedOrRemovedAndCounted) {

@@ -26,6 +26,7 @@
 #include "io/FrameReader.hpp"
 #include "io/PngPreview.hpp"
 #include "io/SurfaceIO.hpp"
+#include "mpm/MpmSimulation.hpp"
 
 namespace gen4d::cli {
 namespace fs = std::filesystem;
@@ -47,14 +48,40 @@ int rank_of(MPI_Comm c) {
 
 //! Refuses to clobber an earlier run's results unless asked to; decided on rank 0 so every
 //! rank takes the same branch.
-void check_output_dir(const std::string& out, bool overwrite) {
+void check_output_dir(const std::string& out, bool overwrite, const char* frames = "frames.h5") {
   int exists = 0;
-  if (rank_of(MPI_COMM_WORLD) == 0) exists = fs::exists(fs::path(out) / "frames.h5") ? 1 : 0;
+  if (rank_of(MPI_COMM_WORLD) == 0) exists = fs::exists(fs::path(out) / frames) ? 1 : 0;
   MPI_Bcast(&exists, 1, MPI_INT, 0, MPI_COMM_WORLD);
   if (exists && !overwrite)
-    throw InputError("--out " + out +
-                     ": already holds results (frames.h5); pass --overwrite to replace them or "
-                     "choose another directory");
+    throw InputError("--out " + out + ": already holds results (" + frames +
+                     "); pass --overwrite to replace them or choose another directory");
+}
+
+int run_mpm(mpm::MpmSimulation& sim, const std::string& out, bool append) {
+  mpm::MpmSimulation::install_signal_handlers();
+  const auto res = sim.run(out, append);
+  if (res.exit_code == 0)
+    log::info("done: {} substeps in {:.2f} s; particles {}/particles.h5 (+ .xdmf), checkpoint {}",
+              res.substeps, res.wall_seconds, out, res.last_checkpoint);
+  return res.exit_code;
+}
+
+//! True when `path` is an MPM particle checkpoint (its format attribute says so); decided on
+//! rank 0. Other files go to the voxel checkpoint reader, which reports what is wrong.
+bool is_mpm_checkpoint(const std::string& path) {
+  int mpm_file = 0;
+  if (rank_of(MPI_COMM_WORLD) == 0) {
+    io::h5::silence_errors();
+    const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (f >= 0) {
+      io::h5::Handle file(f, H5Fclose);
+      if (io::h5::has_attr(file.get(), "format") && io::h5::attr_is_string(file.get(), "format"))
+        mpm_file = io::h5::read_string_attr(file.get(), "format", path) ==
+                   mpm::kParticleCheckpointFormat;
+    }
+  }
+  MPI_Bcast(&mpm_file, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  return mpm_file != 0;
 }
 
 int run_simulation(elastogen::Simulation& sim, const std::string& out, bool append) {
@@ -70,6 +97,11 @@ int cmd_run(const RunArgs& a) {
   Config cfg = a.deck.empty() ? parse_deck(default_deck_text, "<embedded default>", ".", a.sets)
                               : load_deck(a.deck, a.sets);
   const std::string out = a.out.empty() ? cfg.output.dir : a.out;
+  if (cfg.solver.method == "mpm") {
+    mpm::MpmSimulation sim(MPI_COMM_WORLD, cfg);  // validates material and geometry
+    check_output_dir(out, a.overwrite, "particles.h5");
+    return run_mpm(sim, out, false);
+  }
   elastogen::Simulation sim(MPI_COMM_WORLD, cfg);  // validates geometry; writes nothing
   check_output_dir(out, a.overwrite);
   return run_simulation(sim, out, false);
@@ -77,6 +109,20 @@ int cmd_run(const RunArgs& a) {
 
 int cmd_restart(const std::string& checkpoint, const std::string& out_arg,
                 const std::vector<std::string>& sets) {
+  if (is_mpm_checkpoint(checkpoint)) {
+    const auto meta = mpm::read_particle_checkpoint_meta(MPI_COMM_WORLD, checkpoint);
+    Config cfg = parse_deck(meta.deck_text, checkpoint + " (stored deck)", ".", sets);
+    const std::string out =
+        out_arg.empty() ? fs::path(checkpoint).parent_path().string() : out_arg;
+    const std::string dir = out.empty() ? "." : out;
+    mpm::MpmSimulation sim(MPI_COMM_WORLD, cfg, false);
+    sim.load_checkpoint(checkpoint);
+    int exists = 0;
+    if (rank_of(MPI_COMM_WORLD) == 0)
+      exists = fs::exists(fs::path(dir) / "particles.h5") ? 1 : 0;
+    MPI_Bcast(&exists, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    return run_mpm(sim, dir, exists != 0);
+  }
   const io::CheckpointMeta meta = io::read_checkpoint_meta(MPI_COMM_WORLD, checkpoint);
   Config cfg = parse_deck(meta.deck_text, checkpoint + " (stored deck)", ".", sets);
   const std::string out = out_arg.empty() ? fs::path(checkpoint).parent_path().string() : out_arg;

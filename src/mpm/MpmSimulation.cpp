@@ -1,0 +1,313 @@
+#include "mpm/MpmSimulation.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <filesystem>
+
+#include "core/Log.hpp"
+#include "geometry/Shape.hpp"
+#include "io/Checkpoint.hpp"
+#include "io/Hdf5.hpp"
+#include "mpm/Seeding.hpp"
+
+namespace gen4d::mpm {
+namespace fs = std::filesystem;
+
+namespace {
+
+volatile std::sig_atomic_t g_signal = 0;
+extern "C" void on_mpm_signal(int sig) { g_signal = sig; }
+
+std::string format_duration(double s) {
+  if (!std::isfinite(s)) return "?";
+  if (s < 60) return fmt::format("{:.0f}s", s);
+  if (s < 3600) return fmt::format("{:.0f}m{:02.0f}s", std::floor(s / 60), std::fmod(s, 60));
+  return fmt::format("{:.0f}h{:02.0f}m", std::floor(s / 3600), std::fmod(s / 60, 60));
+}
+
+double end_time_of(const Config& cfg) { return cfg.end_time; }
+
+}  // namespace
+
+GridSpec layout_grid(const Config& cfg, const geometry::Aabb& object) {
+  GridSpec g;
+  g.dx = cfg.voxel_size;
+  Vec3d lo, hi;
+  if (cfg.mpm.has_box) {
+    lo = cfg.mpm.lo;
+    hi = cfg.mpm.hi;
+  } else {
+    const int pad = std::max(cfg.padding, cfg.mpm.boundary_layers + 2);
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = object.lo[a] - pad * g.dx;
+      hi[a] = object.hi[a] + pad * g.dx;
+    }
+  }
+  for (int a = 0; a < 3; ++a) {
+    g.lo[a] = lo[a];
+    g.cells[a] = static_cast<long>(std::ceil((hi[a] - lo[a]) / g.dx - 1e-9));
+    if (g.cells[a] > 100000L)
+      throw InputError(fmt::format("{}: key 'domain.voxel_size': {} MPM cells along one axis; the "
+                                   "cell size is too small for the grid box",
+                                   cfg.source, g.cells[a]));
+  }
+  return g;
+}
+
+std::shared_ptr<const Material> make_deck_material(const Config& cfg) {
+  MaterialParams p;
+  p.model = cfg.material.model;
+  p.values = cfg.material.params;
+  p.where = cfg.material.param_where;
+  p.values["youngs_modulus"] = cfg.material.youngs_modulus;
+  p.values["poisson_ratio"] = cfg.material.poisson_ratio;
+  p.values["density"] = cfg.material.density;
+  p.source = cfg.source;
+  return make_material(p);
+}
+
+void MpmSimulation::install_signal_handlers() {
+  std::signal(SIGTERM, on_mpm_signal);
+  std::signal(SIGUSR1, on_mpm_signal);
+}
+
+MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed)
+    : comm_(comm), cfg_(cfg) {
+  MPI_Comm_rank(comm, &rank_);
+  MPI_Comm_size(comm, &size_);
+  auto material = make_deck_material(cfg_);
+  auto shape = geometry::make_shape(cfg_.geometry);
+  spec_ = layout_grid(cfg_, shape->bounds());
+  SolverOptions opt;
+  opt.gravity = cfg_.gravity;
+  opt.max_dt = cfg_.dt;
+  opt.adaptive = cfg_.mpm.substep == "adaptive";
+  opt.cfl = cfg_.mpm.cfl;
+  opt.wave_cfl = cfg_.mpm.wave_cfl;
+  opt.remove_outside = cfg_.mpm.out_of_domain == "remove";
+  opt.boundary_layers = cfg_.mpm.boundary_layers;
+  opt.max_cells_per_substep = cfg_.mpm.max_cells_per_substep;
+  solver_ = std::make_unique<Solver>(comm_, spec_, material, opt, cfg_.boundaries);
+  if (!seed) return;
+  Particles p = seed_particles(comm_, spec_, *shape, cfg_.mpm.particles_per_axis, *material,
+                               cfg_.mpm.velocity);
+  long long n = static_cast<long long>(p.size());
+  MPI_Allreduce(MPI_IN_PLACE, &n, 1, MPI_LONG_LONG, MPI_SUM, comm_);
+  if (n == 0)
+    throw InputError(cfg_.source +
+                     ": the geometry holds no particle of the MPM grid (is the object inside "
+                     "[mpm] lo/hi, and larger than domain.voxel_size / particles_per_axis?)");
+  total_ = n;
+  solver_->distribute(std::move(p));
+  log::info("mpm: {} particles ({} per cell), grid {} x {} x {} cells of {:.4g} m, material {}",
+            total_, cfg_.mpm.particles_per_axis * cfg_.mpm.particles_per_axis *
+                        cfg_.mpm.particles_per_axis,
+            spec_.cells[0], spec_.cells[1], spec_.cells[2], spec_.dx, material->name());
+}
+
+MpmSimulation::~MpmSimulation() = default;
+
+double MpmSimulation::frame_interval() const {
+  return cfg_.output.frame_interval > 0 ? cfg_.output.frame_interval : cfg_.dt;
+}
+
+void MpmSimulation::load_checkpoint(const std::string& path) {
+  Particles p;
+  const ParticleCheckpointMeta meta = read_particle_checkpoint(comm_, path, p);
+  total_ = meta.total_particles;
+  step_ = meta.step;
+  time_ = meta.time;
+  frame_index_ = meta.frame_index;
+  next_frame_time_ = meta.next_frame_time;
+  auto get = [&](const char* k) {
+    auto it = meta.extras.find(k);
+    return it == meta.extras.end() ? 0.0 : it->second;
+  };
+  solver_->set_counters(static_cast<long long>(get("removed")),
+                        static_cast<long long>(get("clamped")));
+  solver_->distribute(std::move(p));
+  log::info("restart from {}: substep {}, t = {:.6g} s, {} particles alive", path, step_, time_,
+            solver_->count());
+}
+
+std::string MpmSimulation::write_checkpoint(const std::string& out_dir, const Snapshot* from) {
+  const auto t0 = std::chrono::steady_clock::now();
+  ParticleCheckpointState st;
+  st.step = static_cast<int>(from ? from->step : step_);
+  st.time = from ? from->time : time_;
+  st.frame_index = static_cast<int>(from ? from->frame_index : frame_index_);
+  st.next_frame_time = from ? from->next_frame_time : next_frame_time_;
+  st.deck_text = cfg_.text;
+  st.total_particles = total_;
+  st.state_names = solver_->material().state_names();
+  st.extras["removed"] = static_cast<double>(solver_->removed());
+  st.extras["clamped"] = static_cast<double>(solver_->clamped());
+  st.particles = from ? &from->particles : &solver_->particles();
+  const std::string path = write_particle_checkpoint(comm_, out_dir, st, cfg_.output.checkpoint_keep);
+  io_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return path;
+}
+
+void MpmSimulation::write_frame(ParticleFrameWriter& writer, const std::string& out_dir) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const Particles& p = solver_->particles();
+  const std::size_t n = p.size();
+  // Output fields: J = det F, the material's state slots, von Mises of the Cauchy stress.
+  std::vector<double> J(n), mises(n), tau(9 * n);
+  if (n) solver_->material().stress(n, p.F.data(), p.state.data(), tau.data());
+  const auto names = solver_->material().state_names();
+  std::vector<std::vector<double>> slots(names.size(), std::vector<double>(n));
+  for (std::size_t i = 0; i < n; ++i) {
+    const double* F = &p.F[9 * i];
+    J[i] = F[0] * (F[4] * F[8] - F[5] * F[7]) - F[1] * (F[3] * F[8] - F[5] * F[6]) +
+           F[2] * (F[3] * F[7] - F[4] * F[6]);
+    const double* t = &tau[9 * i];
+    const double tr = (t[0] + t[4] + t[8]) / 3;
+    double s2 = 0;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) {
+        const double s = t[3 * r + c] - (r == c ? tr : 0.0);
+        s2 += s * s;
+      }
+    mises[i] = std::sqrt(1.5 * s2) / std::max(J[i], 1e-12);
+    for (std::size_t s = 0; s < names.size(); ++s) slots[s][i] = p.state[kStateSize * i + s];
+  }
+  std::vector<ParticleScalar> fields{{"J", J.data()}, {"von_mises_stress", mises.data()}};
+  for (std::size_t s = 0; s < names.size(); ++s) fields.push_back({names[s], slots[s].data()});
+  writer.write_frame(time_, static_cast<int>(step_), p, fields);
+  const int index = static_cast<int>(writer.frames().back().index);
+  if (cfg_.output.particles == "ply")
+    write_particle_ply(comm_, (fs::path(out_dir) / "particles" /
+                               fmt::format("particles_{:06d}.ply", index)).string(), p);
+  if (cfg_.output.volumes == "vdb")
+    write_particle_vdb(comm_, (fs::path(out_dir) / "volumes" /
+                               fmt::format("volume_{:06d}.vdb", index)).string(), p, spec_.dx);
+  io_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void MpmSimulation::take_snapshot() {
+  snapshot_.particles = solver_->particles();
+  snapshot_.step = step_;
+  snapshot_.time = time_;
+  snapshot_.frame_index = frame_index_;
+  snapshot_.next_frame_time = next_frame_time_;
+}
+
+int MpmSimulation::pending_signal() {
+  const int local = static_cast<int>(g_signal);
+  int sig = 0;
+  MPI_Allreduce(&local, &sig, 1, MPI_INT, MPI_MAX, comm_);
+  if (sig != 0) g_signal = 0;
+  return sig;
+}
+
+MpmRunResult MpmSimulation::run(const std::string& out_dir, bool append) {
+  MpmRunResult res;
+  // Output folders (rank 0 creates; a failure reaches every rank).
+  std::string error;
+  if (rank_ == 0) {
+    std::error_code ec;
+    fs::create_directories(out_dir, ec);
+    if (!ec && cfg_.output.particles == "ply") fs::create_directories(fs::path(out_dir) / "particles", ec);
+    if (!ec && cfg_.output.volumes == "vdb") fs::create_directories(fs::path(out_dir) / "volumes", ec);
+    if (ec) error = out_dir + ": cannot create the output directory: " + ec.message();
+  }
+  error = io::h5::first_error(comm_, error);
+  if (!error.empty()) throw RuntimeError(error);
+  const std::string frames_path = (fs::path(out_dir) / "particles.h5").string();
+  ParticleFrameWriter writer =
+      append ? ParticleFrameWriter::open_append(comm_, frames_path, static_cast<int>(step_))
+             : ParticleFrameWriter(comm_, frames_path, total_,
+                                   {{"deck", cfg_.text}, {"solver", "mpm"}});
+  const double interval = frame_interval();
+  if (!append) {
+    // A fresh file starts with the current state (t = 0, or a restart's checkpoint).
+    write_frame(writer, out_dir);
+    if (step_ == 0) {
+      frame_index_ = 1;
+      next_frame_time_ = std::min(end_time_of(cfg_), interval);
+    }
+  }
+  take_snapshot();
+  const double end = cfg_.end_time;
+  const auto start = std::chrono::steady_clock::now();
+  auto last_print = start;
+  const double t_start = time_;
+  long substeps = 0;
+  while (time_ < end * (1 - 1e-12)) {
+    const double target = std::min(next_frame_time_, end);
+    double dt = solver_->stable_dt(target - time_);
+    const bool reaches = dt >= (target - time_) * (1 - 1e-12);
+    try {
+      solver_->substep(time_, dt);
+    } catch (const InstabilityError& e) {
+      const std::string path = write_checkpoint(out_dir, &snapshot_);
+      writer.close();
+      throw RuntimeError(fmt::format("{}. The last good frame (t = {:.6g} s) is in {}", e.what(),
+                                     snapshot_.time, path));
+    }
+    time_ = reaches ? target : time_ + dt;
+    ++step_;
+    ++substeps;
+    if (reaches && target == next_frame_time_) {
+      write_frame(writer, out_dir);
+      ++frame_index_;
+      next_frame_time_ = std::min(end, interval * static_cast<double>(frame_index_));
+      take_snapshot();
+    }
+    const bool periodic =
+        cfg_.output.checkpoint_every > 0 && step_ % cfg_.output.checkpoint_every == 0;
+    const int sig = (substeps % 16 == 0 || periodic) ? pending_signal() : 0;
+    if (periodic || sig) res.last_checkpoint = write_checkpoint(out_dir);
+    if (sig) {
+      log::info("signal {}: checkpoint {} written at substep {}, t = {:.6g} s; stopping", sig,
+                res.last_checkpoint, step_, time_);
+      res.exit_code = 1;
+      break;
+    }
+    const auto now = std::chrono::steady_clock::now();
+    if (std::chrono::duration<double>(now - last_print).count() >= cfg_.output.progress_interval ||
+        time_ >= end * (1 - 1e-12)) {
+      last_print = now;
+      const double wall = std::chrono::duration<double>(now - start).count();
+      const double rate = (time_ - t_start) / std::max(wall, 1e-9);
+      log::info("substep {:>7}  t = {:.5g} s ({:.1f} %)  dt {:.3g} s  {:.1f} substeps/s  ETA {}"
+                "  removed {}  clamped {}",
+                step_, time_, 100 * time_ / end, dt, static_cast<double>(substeps) / std::max(wall, 1e-9),
+                format_duration((end - time_) / std::max(rate, 1e-300)), solver_->removed(),
+                solver_->clamped());
+    }
+  }
+  if (res.exit_code == 0) res.last_checkpoint = write_checkpoint(out_dir);
+  writer.close();
+  res.substeps = substeps;
+  res.wall_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  report_timers(res.wall_seconds, substeps);
+  if (solver_->removed() || solver_->clamped())
+    log::info("particles that left the grid: {} removed, {} clamped back in", solver_->removed(),
+              solver_->clamped());
+  return res;
+}
+
+void MpmSimulation::report_timers(double wall, long substeps) const {
+  const char* phases[] = {"material", "p2g", "halo", "grid", "g2p", "guard", "migration"};
+  double n = static_cast<double>(solver_->count()) * static_cast<double>(substeps);
+  log::info("phase timers (max over ranks, wall {:.2f} s, {:.3g} particle-substeps/s):", wall,
+            n / std::max(wall, 1e-9));
+  const auto& timers = solver_->timers();
+  for (const char* p : phases) {
+    double local = timers.total(p), global = 0;
+    MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_MAX, comm_);
+    log::info("  {:<10} {:9.3f} s  {:5.1f} %", p, global, 100.0 * global / std::max(wall, 1e-9));
+  }
+  double io = io_seconds_, gio = 0;
+  MPI_Allreduce(&io, &gio, 1, MPI_DOUBLE, MPI_MAX, comm_);
+  log::info("  {:<10} {:9.3f} s  {:5.1f} %", "io", gio, 100.0 * gio / std::max(wall, 1e-9));
+}
+
+}  // namespace gen4d::mpm

@@ -1,0 +1,79 @@
+//! A whole MPM run from a deck (solver.method = "mpm"): particles seeded from the geometry,
+//! the substep loop with progress lines, particle frames (HDF5 + XDMF, optional PLY and VDB
+//! per frame), checkpoints (periodic, final, on SIGTERM/SIGUSR1, and of the last good frame
+//! when the instability guard stops the run) and restart at any rank count.
+#pragma once
+
+#include <mpi.h>
+
+#include <memory>
+#include <string>
+
+#include "core/Config.hpp"
+#include "geometry/Shape.hpp"
+#include "mpm/ParticleIO.hpp"
+#include "mpm/Solver.hpp"
+
+namespace gen4d::mpm {
+
+struct MpmRunResult {
+  int exit_code = 0;  //!< 0 finished, 1 stopped by a signal
+  long substeps = 0;  //!< substeps taken by this process
+  double wall_seconds = 0;
+  std::string last_checkpoint;
+};
+
+//! Grid of a deck: [mpm] lo/hi, else the object's bounds padded by max(domain.padding,
+//! mpm.boundary_layers + 2) cells.
+GridSpec layout_grid(const Config& cfg, const geometry::Aabb& object);
+//! The deck's material for the MPM registry (InputError naming the deck key when invalid).
+std::shared_ptr<const Material> make_deck_material(const Config& cfg);
+
+class MpmSimulation {
+ public:
+  //! Builds material, grid and particles (seeded unless `seed` is false: restart). Collective.
+  MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed = true);
+  ~MpmSimulation();
+
+  //! Replaces the particles, clock and counters with a checkpoint's (any rank count).
+  void load_checkpoint(const std::string& path);
+  //! Runs to simulation.end_time writing into out_dir; `append` continues the frame file.
+  MpmRunResult run(const std::string& out_dir, bool append);
+
+  Solver& solver() { return *solver_; }
+  long substep_index() const { return step_; }
+  double time() const { return time_; }
+  std::int64_t total_particles() const { return total_; }
+
+  static void install_signal_handlers();
+
+ private:
+  struct Snapshot {
+    Particles particles;
+    long step = 0;
+    double time = 0;
+    long frame_index = 0;
+    double next_frame_time = 0;
+  };
+  double frame_interval() const;
+  std::string write_checkpoint(const std::string& out_dir, const Snapshot* from = nullptr);
+  void write_frame(ParticleFrameWriter& writer, const std::string& out_dir);
+  void take_snapshot();
+  int pending_signal();
+  void report_timers(double wall, long substeps) const;
+
+  MPI_Comm comm_;
+  Config cfg_;
+  int rank_ = 0, size_ = 1;
+  GridSpec spec_;
+  std::unique_ptr<Solver> solver_;
+  std::int64_t total_ = 0;
+  long step_ = 0;
+  double time_ = 0;
+  long frame_index_ = 0;
+  double next_frame_time_ = 0;
+  Snapshot snapshot_;
+  double io_seconds_ = 0;
+};
+
+}  // namespace gen4d::mpm
