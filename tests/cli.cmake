@@ -9,3 +9,13 @@ if(TARGET gen4d)
                          TIMEOUT 600)
   endforeach()
 endif()
+
+# MPM runs end to end (sand column deck at a coarse cell size).
+if(TARGET gen4d)
+  add_test(NAME cli_mpm
+           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/cli_mpm.sh $<TARGET_FILE:gen4d>
+                   ${MPIEXEC_EXECUTABLE} ${CMAKE_CURRENT_BINARY_DIR}/scratch/cli_mpm
+                   ${CMAKE_SOURCE_DIR}/inputs/mpm_sand.toml)
+  set_tests_properties(cli_mpm PROPERTIES ENVIRONMENT "${GEN4D_TEST_ENV}" PROCESSORS 2
+                       TIMEOUT 600)
+endif()

@@ -29,8 +29,6 @@ std::string format_duration(double s) {
   return fmt::format("{:.0f}h{:02.0f}m", std::floor(s / 3600), std::fmod(s / 60, 60));
 }
 
-double end_time_of(const Config& cfg) { return cfg.end_time; }
-
 }  // namespace
 
 GridSpec layout_grid(const Config& cfg, const geometry::Aabb& object) {
@@ -229,7 +227,7 @@ MpmRunResult MpmSimulation::run(const std::string& out_dir, bool append) {
     write_frame(writer, out_dir);
     if (step_ == 0) {
       frame_index_ = 1;
-      next_frame_time_ = std::min(end_time_of(cfg_), interval);
+      next_frame_time_ = interval;
     }
   }
   take_snapshot();
@@ -256,7 +254,10 @@ MpmRunResult MpmSimulation::run(const std::string& out_dir, bool append) {
     if (reaches && target == next_frame_time_) {
       write_frame(writer, out_dir);
       ++frame_index_;
-      next_frame_time_ = std::min(end, interval * static_cast<double>(frame_index_));
+      next_frame_time_ = interval * static_cast<double>(frame_index_);
+      take_snapshot();
+    } else if (reaches && time_ >= end) {
+      write_frame(writer, out_dir);  // the final state, between two frame times
       take_snapshot();
     }
     const bool periodic =
