@@ -216,6 +216,7 @@ const std::vector<std::string>& mpm_material_keys() {
 
 void read_mpm_material(Section& s, MaterialConfig& m) {
   m.model = s.string("model");
+  m.param_where["model"] = s.where("model");
   for (const char* key : {"target", "neural_weights"})
     s.check(!s.has(key), key, "does not apply to solver.method = \"mpm\"");
   m.youngs_modulus = s.number("youngs_modulus");

@@ -101,6 +101,12 @@ MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed)
                      "[mpm] lo/hi, and larger than domain.voxel_size / particles_per_axis?)");
   total_ = n;
   solver_->distribute(std::move(p));
+  long long local = static_cast<long long>(solver_->particles().size()), most = 0, least = 0;
+  MPI_Allreduce(&local, &most, 1, MPI_LONG_LONG, MPI_MAX, comm_);
+  MPI_Allreduce(&local, &least, 1, MPI_LONG_LONG, MPI_MIN, comm_);
+  if (size_ > 1)
+    log::info("mpm: static balance over {} ranks: {} to {} particles per rank (max / mean {:.3f})",
+              size_, least, most, static_cast<double>(most) * size_ / static_cast<double>(n));
   log::info("mpm: {} particles ({} per cell), grid {} x {} x {} cells of {:.4g} m, material {}",
             total_, cfg_.mpm.particles_per_axis * cfg_.mpm.particles_per_axis *
                         cfg_.mpm.particles_per_axis,
