@@ -98,16 +98,15 @@ std::vector<double> gather_sorted(MPI_Comm comm, const mpm::Particles& p) {
     total += counts[r];
   }
   std::vector<double> all(rank == 0 ? total : 0);
-  MPI_Gatherv(local.data(), n, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE,
-              0, comm);
+  MPI_Gatherv(local.data(), n, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, 0,
+              comm);
   if (rank != 0) return {};
   const int R = mpm::Particles::kRecord;
   std::vector<std::size_t> order(all.size() / R);
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
   std::sort(order.begin(), order.end(), [&](auto a, auto b) { return all[a * R] < all[b * R]; });
   std::vector<double> out(all.size());
-  for (std::size_t i = 0; i < order.size(); ++i)
-    std::copy_n(&all[order[i] * R], R, &out[i * R]);
+  for (std::size_t i = 0; i < order.size(); ++i) std::copy_n(&all[order[i] * R], R, &out[i * R]);
   return out;
 }
 
@@ -142,13 +141,12 @@ TEST(MpmSolver, BitIdenticalAcrossRankCountsForEveryMaterial) {
   expect_bit_identical({"stvk_hencky", {}, {floor}, {-0.2, 0, -1}}, 40);
   expect_bit_identical({"neo_hookean", {}, {plane("sticky", {0, 0, 0}, {0, 0, 1})}}, 40);
   expect_bit_identical({"drucker_prager", {{"friction_angle", 30}}, {floor}}, 60);
-  expect_bit_identical({"von_mises", {{"yield_stress", 2e3}, {"hardening", 1e3}}, {floor}, {0, 0, -2}},
-                       40);
+  expect_bit_identical(
+      {"von_mises", {{"yield_stress", 2e3}, {"hardening", 1e3}}, {floor}, {0, 0, -2}}, 40);
   expect_bit_identical({"herschel_bulkley", {{"yield_stress", 50}, {"consistency", 1}}, {floor}},
                        60);
-  expect_bit_identical({"fracture", {{"fracture_strain", 0.02}, {"failure_strain", 0.05}}, {floor},
-                        {0, 0, -1}},
-                       40);
+  expect_bit_identical(
+      {"fracture", {{"fracture_strain", 0.02}, {"failure_strain", 0.05}}, {floor}, {0, 0, -1}}, 40);
 }
 
 TEST(MpmSolver, BitIdenticalWithEveryBoundaryCondition) {
@@ -199,8 +197,7 @@ TEST(MpmSolver, MomentumAndMassAreConservedWithoutExternalForces) {
   for (int k = 0; k < 6; ++k) {
     run(*solver, 10, t);
     const auto P = solver->total_momentum();
-    for (int d = 0; d < 3; ++d)
-      worst = std::max(worst, std::abs(P[d] - P0[d]) / std::abs(P0[0]));
+    for (int d = 0; d < 3; ++d) worst = std::max(worst, std::abs(P[d] - P0[d]) / std::abs(P0[0]));
   }
   EXPECT_LT(worst, 1e-11);
   EXPECT_EQ(solver->total_mass(), M0);
@@ -244,8 +241,8 @@ TEST(MpmSolver, StickyFloorStopsTheBody) {
   }
   MPI_Allreduce(MPI_IN_PLACE, &lowest, 1, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
   MPI_Allreduce(MPI_IN_PLACE, slide, 2, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
-  ASSERT_GT(slide[1], 0);            // the block reached the plane
-  EXPECT_GT(lowest, -0.1 - 0.05);    // within a cell of the plane, never through it
+  ASSERT_GT(slide[1], 0);                         // the block reached the plane
+  EXPECT_GT(lowest, -0.1 - 0.05);                 // within a cell of the plane, never through it
   EXPECT_LT(std::abs(slide[0] / slide[1]), 0.3);  // the contact layer no longer slides
 }
 

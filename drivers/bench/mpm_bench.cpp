@@ -87,8 +87,8 @@ std::string run_case(const char* name, const std::string& model, long target, in
       "     \"bytes_per_particle_substep\": {:.0f}, \"effective_GBps\": {:.3f}, "
       "\"fraction_of_stream\": {:.3f},\n"
       "     \"phase_seconds\": {{{}}}}}",
-      name, model, particles, nodes, substeps, wall, rate, rate / size, kParticleBytes,
-      bytes / 1e9, bytes / stream, phases);
+      name, model, particles, nodes, substeps, wall, rate, rate / size, kParticleBytes, bytes / 1e9,
+      bytes / stream, phases);
 }
 
 int run(long particles, int substeps, long stream_n) {
@@ -96,14 +96,15 @@ int run(long particles, int substeps, long stream_n) {
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &size);
   const double stream = bench::stream_triad(static_cast<std::size_t>(stream_n));
-  const std::string elastic = run_case("elastic_block", "fixed_corotated", particles, substeps,
-                                       stream, size);
-  const std::string sand = run_case("sand_block", "drucker_prager", particles, substeps, stream,
-                                    size);
+  const std::string elastic =
+      run_case("elastic_block", "fixed_corotated", particles, substeps, stream, size);
+  const std::string sand =
+      run_case("sand_block", "drucker_prager", particles, substeps, stream, size);
   if (rank == 0)
-    std::printf("{\n  \"benchmark\": \"mpm\",\n  \"ranks\": %d,\n  \"stream_triad_GBps\": %.3f,\n"
-                "  \"cases\": [\n%s,\n%s\n  ]\n}\n",
-                size, stream / 1e9, elastic.c_str(), sand.c_str());
+    std::printf(
+        "{\n  \"benchmark\": \"mpm\",\n  \"ranks\": %d,\n  \"stream_triad_GBps\": %.3f,\n"
+        "  \"cases\": [\n%s,\n%s\n  ]\n}\n",
+        size, stream / 1e9, elastic.c_str(), sand.c_str());
   return 0;
 }
 

@@ -76,8 +76,8 @@ bool is_mpm_checkpoint(const std::string& path) {
     if (f >= 0) {
       io::h5::Handle file(f, H5Fclose);
       if (io::h5::has_attr(file.get(), "format") && io::h5::attr_is_string(file.get(), "format"))
-        mpm_file = io::h5::read_string_attr(file.get(), "format", path) ==
-                   mpm::kParticleCheckpointFormat;
+        mpm_file =
+            io::h5::read_string_attr(file.get(), "format", path) == mpm::kParticleCheckpointFormat;
     }
   }
   MPI_Bcast(&mpm_file, 1, MPI_INT, 0, MPI_COMM_WORLD);
@@ -112,14 +112,12 @@ int cmd_restart(const std::string& checkpoint, const std::string& out_arg,
   if (is_mpm_checkpoint(checkpoint)) {
     const auto meta = mpm::read_particle_checkpoint_meta(MPI_COMM_WORLD, checkpoint);
     Config cfg = parse_deck(meta.deck_text, checkpoint + " (stored deck)", ".", sets);
-    const std::string out =
-        out_arg.empty() ? fs::path(checkpoint).parent_path().string() : out_arg;
+    const std::string out = out_arg.empty() ? fs::path(checkpoint).parent_path().string() : out_arg;
     const std::string dir = out.empty() ? "." : out;
     mpm::MpmSimulation sim(MPI_COMM_WORLD, cfg, false);
     sim.load_checkpoint(checkpoint);
     int exists = 0;
-    if (rank_of(MPI_COMM_WORLD) == 0)
-      exists = fs::exists(fs::path(dir) / "particles.h5") ? 1 : 0;
+    if (rank_of(MPI_COMM_WORLD) == 0) exists = fs::exists(fs::path(dir) / "particles.h5") ? 1 : 0;
     MPI_Bcast(&exists, 1, MPI_INT, 0, MPI_COMM_WORLD);
     return run_mpm(sim, dir, exists != 0);
   }

@@ -15,8 +15,8 @@
 
 namespace gen4d::driver {
 
-inline std::shared_ptr<const mpm::Material> mpm_material(
-    const std::string& model, std::map<std::string, double> values) {
+inline std::shared_ptr<const mpm::Material> mpm_material(const std::string& model,
+                                                         std::map<std::string, double> values) {
   mpm::MaterialParams p;
   p.model = model;
   p.values = std::move(values);

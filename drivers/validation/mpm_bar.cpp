@@ -31,9 +31,8 @@ int run(int cells, int periods, const std::string& csv) {
   // Room for the drift: 0.2 m/s over `periods` periods of 20 ms, under 3 cells.
   grid.cells = {cells + 2 * pad + 4, hcells + 2 * pad + 4, hcells + 2 * pad + 4};
   grid.lo = {-pad * dx, -(pad + 2) * dx, -(pad + 2) * dx};
-  auto material =
-      driver::mpm_material("neo_hookean", {{"youngs_modulus", E}, {"poisson_ratio", nu},
-                                           {"density", rho}});
+  auto material = driver::mpm_material(
+      "neo_hookean", {{"youngs_modulus", E}, {"poisson_ratio", nu}, {"density", rho}});
   mpm::SolverOptions opt;
   opt.gravity = {0, 0, 0};
   opt.max_dt = 1e-3;
@@ -93,11 +92,13 @@ int run(int cells, int periods, const std::string& csv) {
   const bool ok = err <= 0.03 && max_drift <= 1e-10;
   const long long count = solver->count();
   if (rank == 0) {
-    std::printf("MPM elastic bar: L = %g m, h = %g m, E = %g Pa, rho = %g kg/m^3, %d cells along L, "
-                "%lld particles, %ld substeps\n",
-                L, h, E, rho, cells, count, substeps);
-    std::printf("  first axial mode: measured %.4f Hz, c/(2L) = %.4f Hz, error %.2f %% (target 3 %%)\n",
-                f_measured, f_exact, 100 * err);
+    std::printf(
+        "MPM elastic bar: L = %g m, h = %g m, E = %g Pa, rho = %g kg/m^3, %d cells along L, "
+        "%lld particles, %ld substeps\n",
+        L, h, E, rho, cells, count, substeps);
+    std::printf(
+        "  first axial mode: measured %.4f Hz, c/(2L) = %.4f Hz, error %.2f %% (target 3 %%)\n",
+        f_measured, f_exact, 100 * err);
     std::printf("  total momentum drift: %.3e relative (target 1e-10)\n", max_drift);
     std::printf("%s\n", ok ? "PASS" : "FAIL");
     if (!csv.empty()) {

@@ -32,7 +32,9 @@ struct Collapse {
   long substeps = 0;
 };
 
-double lube_law(double a) { return a < 2.3 ? 1.2 * a : 1.9 * std::pow(a, 2.0 / 3.0); }
+double lube_law(double a) {
+  return a < 2.3 ? 1.2 * a : 1.9 * std::pow(a, 2.0 / 3.0);
+}
 
 Collapse simulate(MPI_Comm comm, double a, int cells_d0, double phi, double floor_mu) {
   const double d0 = 0.1, h0 = a * d0, dx = d0 / cells_d0, g = 9.81;
@@ -43,9 +45,10 @@ Collapse simulate(MPI_Comm comm, double a, int cells_d0, double phi, double floo
   grid.lo = {-pad * dx, -pad * dx, -pad * dx};
   grid.cells = {static_cast<long>(std::ceil(reach / dx)) + 2 * pad, thick + 2 * pad + 1,
                 static_cast<long>(std::ceil(h0 / dx)) + 2 * pad + 1};
-  auto material = driver::mpm_material(
-      "drucker_prager", {{"youngs_modulus", 1e6}, {"poisson_ratio", 0.3}, {"density", 1500},
-                         {"friction_angle", phi}});
+  auto material = driver::mpm_material("drucker_prager", {{"youngs_modulus", 1e6},
+                                                          {"poisson_ratio", 0.3},
+                                                          {"density", 1500},
+                                                          {"friction_angle", phi}});
   mpm::SolverOptions opt;
   opt.gravity = {0, 0, -g};
   opt.max_dt = 1e-3;
@@ -59,10 +62,9 @@ Collapse simulate(MPI_Comm comm, double a, int cells_d0, double phi, double floo
     return b;
   };
   const double w = thick * dx;
-  std::vector<BoundaryConfig> bcs = {plane("separate", floor_mu, {0, 0, 0}, {0, 0, 1}),
-                                     plane("slip", 0, {0, 0, 0}, {1, 0, 0}),
-                                     plane("slip", 0, {0, 0, 0}, {0, 1, 0}),
-                                     plane("slip", 0, {0, w, 0}, {0, -1, 0})};
+  std::vector<BoundaryConfig> bcs = {
+      plane("separate", floor_mu, {0, 0, 0}, {0, 0, 1}), plane("slip", 0, {0, 0, 0}, {1, 0, 0}),
+      plane("slip", 0, {0, 0, 0}, {0, 1, 0}), plane("slip", 0, {0, w, 0}, {0, -1, 0})};
   const geometry::Box column(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(d0, w, h0));
   const auto start = std::chrono::steady_clock::now();
   auto solver = driver::mpm_solver(comm, grid, material, opt, bcs, column, ppa);
@@ -79,8 +81,8 @@ Collapse simulate(MPI_Comm comm, double a, int cells_d0, double phi, double floo
   }
   r.t_end = t;
   const mpm::Particles& p = solver->particles();
-  r.runout = driver::particle_max(comm, p, [&](std::size_t i) { return p.x[3 * i]; }) +
-             0.5 * dx / ppa;
+  r.runout =
+      driver::particle_max(comm, p, [&](std::size_t i) { return p.x[3 * i]; }) + 0.5 * dx / ppa;
   r.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
 }
@@ -120,7 +122,8 @@ int run(const std::string& ratios, int cells_d0, double phi, double floor_mu,
   if (rank == 0 && !csv.empty() && !out) throw RuntimeError(csv + ": cannot write");
   if (out) {
     std::fprintf(out, "a,runout_ratio,lube\n");
-    for (const auto& r : rs) std::fprintf(out, "%g,%g,%g\n", r.a, (r.runout - d0) / d0, lube_law(r.a));
+    for (const auto& r : rs)
+      std::fprintf(out, "%g,%g,%g\n", r.a, (r.runout - d0) / d0, lube_law(r.a));
     std::fclose(out);
   }
   if (rs.size() < 4) {
@@ -137,12 +140,14 @@ int run(const std::string& ratios, int cells_d0, double phi, double floor_mu,
   const bool ok1 = std::abs(e1 - 1.0) <= 0.15 && std::abs(k1 - 1.2) <= 0.2 * 1.2;
   const bool ok2 = std::abs(e2 - 2.0 / 3.0) <= 0.15 && std::abs(k2 - 1.9) <= 0.2 * 1.9;
   if (rank == 0) {
-    std::printf("small a (%.2g, %.2g): exponent %.3f (Lube 1, target +-0.15), prefactor %.3f "
-                "(Lube 1.2, target +-20 %%) %s\n",
-                rs[0].a, rs[1].a, e1, k1, ok1 ? "ok" : "MISSED");
-    std::printf("large a (%.2g, %.2g): exponent %.3f (Lube 0.667, target +-0.15), prefactor %.3f "
-                "(Lube 1.9, target +-20 %%) %s\n",
-                rs[rs.size() - 2].a, rs.back().a, e2, k2, ok2 ? "ok" : "MISSED");
+    std::printf(
+        "small a (%.2g, %.2g): exponent %.3f (Lube 1, target +-0.15), prefactor %.3f "
+        "(Lube 1.2, target +-20 %%) %s\n",
+        rs[0].a, rs[1].a, e1, k1, ok1 ? "ok" : "MISSED");
+    std::printf(
+        "large a (%.2g, %.2g): exponent %.3f (Lube 0.667, target +-0.15), prefactor %.3f "
+        "(Lube 1.9, target +-20 %%) %s\n",
+        rs[rs.size() - 2].a, rs.back().a, e2, k2, ok2 ? "ok" : "MISSED");
     std::printf("%s\n", ok1 && ok2 ? "PASS" : "FAIL");
   }
   return ok1 && ok2 ? 0 : 1;

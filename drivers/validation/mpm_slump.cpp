@@ -21,7 +21,9 @@
 namespace gen4d {
 namespace {
 
-double pashias(double t) { return 1 - 2 * t * (1 - std::log(2 * t)); }
+double pashias(double t) {
+  return 1 - 2 * t * (1 - std::log(2 * t));
+}
 
 struct Slump {
   double tau = 0, s_over_h = 0, t_end = 0, wall = 0;
@@ -38,10 +40,12 @@ Slump simulate(MPI_Comm comm, double tau_nd, int cells_h, double consistency) {
   grid.lo = {-pad * dx, -pad * dx, -pad * dx};
   const long rc = static_cast<long>(std::ceil(spread / dx));
   grid.cells = {rc + 2 * pad, rc + 2 * pad, cells_h + 2 * pad + 1};
-  auto material = driver::mpm_material(
-      "herschel_bulkley", {{"youngs_modulus", 2e5}, {"poisson_ratio", 0.3}, {"density", rho},
-                           {"yield_stress", tau_nd * rho * g * H}, {"consistency", consistency},
-                           {"flow_index", 1.0}});
+  auto material = driver::mpm_material("herschel_bulkley", {{"youngs_modulus", 2e5},
+                                                            {"poisson_ratio", 0.3},
+                                                            {"density", rho},
+                                                            {"yield_stress", tau_nd * rho * g * H},
+                                                            {"consistency", consistency},
+                                                            {"flow_index", 1.0}});
   mpm::SolverOptions opt;
   opt.gravity = {0, 0, -g};
   opt.max_dt = 1e-3;
@@ -85,10 +89,13 @@ Slump simulate(MPI_Comm comm, double tau_nd, int cells_h, double consistency) {
   }
   r.t_end = t;
   const mpm::Particles& p = solver->particles();
-  const double h = driver::particle_max(comm, p, [&](std::size_t i) {
-                     return std::hypot(p.x[3 * i], p.x[3 * i + 1]) < 1.5 * dx ? p.x[3 * i + 2]
-                                                                              : -1e300;
-                   }) + 0.5 * dx / ppa;
+  const double h = driver::particle_max(comm, p,
+                                        [&](std::size_t i) {
+                                          return std::hypot(p.x[3 * i], p.x[3 * i + 1]) < 1.5 * dx
+                                                     ? p.x[3 * i + 2]
+                                                     : -1e300;
+                                        }) +
+                   0.5 * dx / ppa;
   r.s_over_h = (H - h) / H;
   r.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;

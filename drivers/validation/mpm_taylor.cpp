@@ -72,8 +72,8 @@ std::vector<TaylorTest> read_tests(const std::string& path, const std::string& s
     t.D0 = r[8];
     t.Df = r[9] > 0 ? r[9] : -1;
     if (!(t.rho > 0 && t.U > 0 && t.L0 > 0 && t.D0 > 0 && t.Lf > 0))
-      throw InputError(fmt::format("{}: test {} has a non-positive density, speed or size", path,
-                                   t.row));
+      throw InputError(
+          fmt::format("{}: test {} has a non-positive density, speed or size", path, t.row));
     out.push_back(t);
   }
   return out;
@@ -107,13 +107,21 @@ struct Constants {
 Constants constants_for(const TaylorTest& t) {
   Constants c;
   if (t.series.rfind("cu", 0) == 0)
-    c.v = {{"youngs_modulus", 124e9}, {"poisson_ratio", 0.34}, {"jc_A", 90e6},
-           {"jc_B", 292e6},           {"jc_n", 0.31},          {"jc_C", 0.025},
-           {"jc_m", 1.09},            {"melt_temperature", 1356}, {"specific_heat", 383}};
+    c.v = {{"youngs_modulus", 124e9},
+           {"poisson_ratio", 0.34},
+           {"jc_A", 90e6},
+           {"jc_B", 292e6},
+           {"jc_n", 0.31},
+           {"jc_C", 0.025},
+           {"jc_m", 1.09},
+           {"melt_temperature", 1356},
+           {"specific_heat", 383}};
   else
-    c.v = {{"youngs_modulus", 69e9}, {"poisson_ratio", 0.33}, {"jc_A", 324e6},
-           {"jc_B", 114e6},          {"jc_n", 0.42},          {"jc_C", 0.002},
-           {"jc_m", 1.34},           {"melt_temperature", 925}, {"specific_heat", 896}};
+    c.v = {{"youngs_modulus", 69e9}, {"poisson_ratio", 0.33},
+           {"jc_A", 324e6},          {"jc_B", 114e6},
+           {"jc_n", 0.42},           {"jc_C", 0.002},
+           {"jc_m", 1.34},           {"melt_temperature", 925},
+           {"specific_heat", 896}};
   c.v["density"] = t.rho;
   c.v["room_temperature"] = 294;
   c.v["initial_temperature"] = t.T0;
@@ -228,20 +236,23 @@ Result simulate(MPI_Comm comm, const TaylorTest& t, int radius_cells, int ppa, b
   const int bins = static_cast<int>(std::ceil((zmax + zmin) / spacing)) + 1;
   std::vector<double> rmax(static_cast<std::size_t>(bins), -1.0);
   for (std::size_t i = 0; i < p.size(); ++i) {
-    const int b = std::clamp(static_cast<int>((p.x[3 * i + 2] + zmin) / spacing + 0.5), 0, bins - 1);
+    const int b =
+        std::clamp(static_cast<int>((p.x[3 * i + 2] + zmin) / spacing + 0.5), 0, bins - 1);
     rmax[static_cast<std::size_t>(b)] =
         std::max(rmax[static_cast<std::size_t>(b)], std::hypot(p.x[3 * i], p.x[3 * i + 1]));
   }
   MPI_Allreduce(MPI_IN_PLACE, rmax.data(), bins, MPI_DOUBLE, MPI_MAX, comm);
   for (int b = 0; b < bins; ++b)
     if (rmax[static_cast<std::size_t>(b)] >= 0)
-      res.profile.push_back({b * spacing + 0.5 * spacing, rmax[static_cast<std::size_t>(b)] + 0.5 * spacing});
+      res.profile.push_back(
+          {b * spacing + 0.5 * spacing, rmax[static_cast<std::size_t>(b)] + 0.5 * spacing});
   res.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return res;
 }
 
 int run(const std::string& data_dir, const std::string& series_arg, int radius_cells, int ppa,
-        bool quarter, double friction, int max_tests, const std::string& csv, const std::string& profile_csv) {
+        bool quarter, double friction, int max_tests, const std::string& csv,
+        const std::string& profile_csv) {
   MPI_Comm comm = MPI_COMM_WORLD;
   int rank = 0;
   MPI_Comm_rank(comm, &rank);
@@ -266,7 +277,8 @@ int run(const std::string& data_dir, const std::string& series_arg, int radius_c
   if (rank == 0 && !csv.empty()) {
     out = std::fopen(csv.c_str(), "w");
     if (!out) throw RuntimeError(csv + ": cannot write");
-    std::fprintf(out, "series,test,U,L0,D0,Lf_measured,Lf_sim,Lf_error,Df_measured,Df_sim,Df_error\n");
+    std::fprintf(out,
+                 "series,test,U,L0,D0,Lf_measured,Lf_sim,Lf_error,Df_measured,Df_sim,Df_error\n");
   }
   if (rank == 0 && !profile_csv.empty()) {
     pout = std::fopen(profile_csv.c_str(), "w");
@@ -275,8 +287,8 @@ int run(const std::string& data_dir, const std::string& series_arg, int radius_c
   }
   if (rank == 0)
     std::printf("%-11s %4s %6s %7s | %8s %8s %7s | %8s %8s %7s | %8s %7s %6s %6s\n", "series",
-                "test", "U m/s", "L0 mm", "Lf/L0 ex", "Lf/L0 sim", "err %", "Df/D0 ex",
-                "Df/D0 sim", "err %", "particles", "substeps", "t us", "wall s");
+                "test", "U m/s", "L0 mm", "Lf/L0 ex", "Lf/L0 sim", "err %", "Df/D0 ex", "Df/D0 sim",
+                "err %", "particles", "substeps", "t us", "wall s");
   int n = 0, pass = 0;
   double worst = 0;
   for (const auto& s : series) {
@@ -290,17 +302,20 @@ int run(const std::string& data_dir, const std::string& series_arg, int radius_c
       pass += std::abs(err) <= 0.05 ? 1 : 0;
       worst = std::max(worst, std::abs(err));
       if (rank == 0) {
-        std::printf("%-11s %4d %6.0f %7.2f | %8.4f %8.4f %+7.2f | %8s %8.4f %7s | %8lld %7ld %6.1f %6.1f\n",
-                    s.c_str(), t.row, t.U, t.L0 * 1e3, t.Lf / t.L0, r.Lf / t.L0, 100 * err,
-                    t.Df > 0 ? fmt::format("{:.4f}", t.Df / t.D0).c_str() : "-", r.Df / t.D0,
-                    t.Df > 0 ? fmt::format("{:+.2f}", 100 * derr).c_str() : "-", r.particles,
-                    r.substeps, r.t_end * 1e6, r.wall);
-        std::printf("%-11s      energy: plastic work %.3f, kinetic %.3f of the initial kinetic "
-                    "energy\n", "", r.plastic_fraction, r.ke_fraction);
+        std::printf(
+            "%-11s %4d %6.0f %7.2f | %8.4f %8.4f %+7.2f | %8s %8.4f %7s | %8lld %7ld %6.1f %6.1f\n",
+            s.c_str(), t.row, t.U, t.L0 * 1e3, t.Lf / t.L0, r.Lf / t.L0, 100 * err,
+            t.Df > 0 ? fmt::format("{:.4f}", t.Df / t.D0).c_str() : "-", r.Df / t.D0,
+            t.Df > 0 ? fmt::format("{:+.2f}", 100 * derr).c_str() : "-", r.particles, r.substeps,
+            r.t_end * 1e6, r.wall);
+        std::printf(
+            "%-11s      energy: plastic work %.3f, kinetic %.3f of the initial kinetic "
+            "energy\n",
+            "", r.plastic_fraction, r.ke_fraction);
         std::fflush(stdout);
         if (out)
-          std::fprintf(out, "%s,%d,%g,%g,%g,%g,%g,%g,%g,%g,%g\n", s.c_str(), t.row, t.U, t.L0,
-                       t.D0, t.Lf, r.Lf, err, t.Df, r.Df, derr);
+          std::fprintf(out, "%s,%d,%g,%g,%g,%g,%g,%g,%g,%g,%g\n", s.c_str(), t.row, t.U, t.L0, t.D0,
+                       t.Lf, r.Lf, err, t.Df, r.Df, derr);
         auto it = profiles.find({s, t.row});
         if (pout && it != profiles.end()) {
           for (const auto& [z, rr] : read_profile(data_dir + "/" + it->second))
@@ -336,12 +351,15 @@ int main(int argc, char** argv) {
         app.add_option("--radius-cells", radius, "Grid cells across the rod radius")
             ->check(CLI::Range(2, 64));
         app.add_option("--ppa", ppa, "Particles per cell and axis")->check(CLI::Range(1, 4));
-        app.add_flag("--full", full, "Simulate the whole rod (default: a quarter with symmetry planes)");
+        app.add_flag("--full", full,
+                     "Simulate the whole rod (default: a quarter with symmetry planes)");
         app.add_option("--friction", friction, "Coulomb friction of the anvil")
             ->check(CLI::Range(0.0, 2.0));
         app.add_option("--max-tests", max_tests, "Stop after this many tests (0: all)");
         app.add_option("--csv", csv, "Write the Lf/Df table");
         app.add_option("--profile-csv", profile_csv, "Write simulated and measured profiles");
       },
-      [&] { return gen4d::run(data, series, radius, ppa, !full, friction, max_tests, csv, profile_csv); });
+      [&] {
+        return gen4d::run(data, series, radius, ppa, !full, friction, max_tests, csv, profile_csv);
+      });
 }

@@ -69,17 +69,18 @@ struct SolverConfig {
 
 //! [mpm]: the material point method's grid, particles and substeps (solver.method = "mpm").
 struct MpmConfig {
-  bool has_box = false;      //!< lo/hi given; else the object's bounds plus domain.padding cells
-  Vec3d lo{0, 0, 0};         //!< m, grid box
-  Vec3d hi{0, 0, 0};         //!< m
+  bool has_box = false;        //!< lo/hi given; else the object's bounds plus domain.padding cells
+  Vec3d lo{0, 0, 0};           //!< m, grid box
+  Vec3d hi{0, 0, 0};           //!< m
   int particles_per_axis = 2;  //!< per cell and axis (2 -> 8 particles per cell)
-  double cfl = 0.3;          //!< substep <= cfl * dx / max particle speed
-  double wave_cfl = 0.5;     //!< substep <= wave_cfl * dx / elastic wave speed
-  std::string substep = "adaptive";  //!< "adaptive" | "fixed" (always simulation.dt)
+  double cfl = 0.3;            //!< substep <= cfl * dx / max particle speed
+  double wave_cfl = 0.5;       //!< substep <= wave_cfl * dx / elastic wave speed
+  std::string substep = "adaptive";     //!< "adaptive" | "fixed" (always simulation.dt)
   std::string out_of_domain = "clamp";  //!< "clamp" | "remove"
-  int boundary_layers = 3;   //!< grid layers of the bounding_box condition
-  Vec3d velocity{0, 0, 0};   //!< initial velocity of every particle, m/s
-  double max_cells_per_substep = 1.0;  //!< instability guard: a particle moving farther stops the run
+  int boundary_layers = 3;              //!< grid layers of the bounding_box condition
+  Vec3d velocity{0, 0, 0};              //!< initial velocity of every particle, m/s
+  double max_cells_per_substep =
+      1.0;  //!< instability guard: a particle moving farther stops the run
 };
 
 //! [[boundary]] of the MPM solver, as in PhysGaussian's configs; active for start <= t < end.
@@ -91,12 +92,12 @@ struct BoundaryConfig {
   Vec3d point{0, 0, 0};
   Vec3d normal{0, 0, 1};
   Vec3d velocity{0, 0, 0};
-  Vec3d angular_velocity{0, 0, 0};  //!< rad/s about `point` (velocity_rotation)
-  Vec3d force{0, 0, 0};             //!< N, total over the region's particles (impulse)
+  Vec3d angular_velocity{0, 0, 0};     //!< rad/s about `point` (velocity_rotation)
+  Vec3d force{0, 0, 0};                //!< N, total over the region's particles (impulse)
   double radius = 0, half_height = 0;  //!< cylinder of velocity_rotation (axis = normal)
   std::string surface = "sticky";      //!< surface_collider: sticky | slip | separate
   double friction = 0;
-  int layers = 1;                      //!< release_particles_sequentially
+  int layers = 1;  //!< release_particles_sequentially
   double start = 0;
   double end = 1e300;
 };

@@ -206,19 +206,29 @@ void read_geometries(toml::table& root, const Locator& loc, const fs::path& base
 
 //! Keys of [material] that only MPM models take (validated per model by the MPM registry).
 const std::vector<std::string>& mpm_material_keys() {
-  static const std::vector<std::string> keys = {
-      "friction_angle", "cohesion", "yield_stress", "hardening", "jc_A", "jc_B", "jc_n",
-      "jc_C", "jc_m", "reference_strain_rate", "room_temperature", "melt_temperature",
-      "initial_temperature", "specific_heat", "taylor_quinney", "consistency", "flow_index",
-      "fracture_strain", "failure_strain"};
+  static const std::vector<std::string> keys = {"friction_angle",
+                                                "cohesion",
+                                                "yield_stress",
+                                                "hardening",
+                                                "jc_A",
+                                                "jc_B",
+                                                "jc_n",
+                                                "jc_C",
+                                                "jc_m",
+                                                "reference_strain_rate",
+                                                "room_temperature",
+                                                "melt_temperature",
+                                                "initial_temperature",
+                                                "specific_heat",
+                                                "taylor_quinney",
+                                                "consistency",
+                                                "flow_index",
+                                                "fracture_strain",
+                                                "failure_strain"};
   return keys;
 }
 
-void read_mpm_material(Section& s, MaterialConfig& m) {
-  m.model = s.string("model");
-  m.param_where["model"] = s.where("model");
-  for (const char* key : {"target", "neural_weights"})
-    s.check(!s.has(key), key, "does not apply to solver.method = \"mpm\"");
+void read_elastic_constants(const Section& s, MaterialConfig& m) {
   m.youngs_modulus = s.number("youngs_modulus");
   require_positive(s, "youngs_modulus", m.youngs_modulus);
   m.poisson_ratio = s.number("poisson_ratio");
@@ -226,6 +236,14 @@ void read_mpm_material(Section& s, MaterialConfig& m) {
           fmt::format("must be in (-1, 0.5), got {}", m.poisson_ratio));
   m.density = s.number("density");
   require_positive(s, "density", m.density);
+}
+
+void read_mpm_material(Section& s, MaterialConfig& m) {
+  m.model = s.string("model");
+  m.param_where["model"] = s.where("model");
+  for (const char* key : {"target", "neural_weights"})
+    s.check(!s.has(key), key, "does not apply to solver.method = \"mpm\"");
+  read_elastic_constants(s, m);
   for (const std::string& key : mpm_material_keys()) {
     if (!s.has(key)) continue;
     m.params[key] = s.number(key);
@@ -254,13 +272,7 @@ void read_material(Section& s, MaterialConfig& m, const fs::path& base_dir) {
   } else {
     s.check(!s.has("neural_weights"), "neural_weights", "only applies to target = \"neural\"");
   }
-  m.youngs_modulus = s.number("youngs_modulus");
-  require_positive(s, "youngs_modulus", m.youngs_modulus);
-  m.poisson_ratio = s.number("poisson_ratio");
-  s.check(m.poisson_ratio > -1 && m.poisson_ratio < 0.5, "poisson_ratio",
-          fmt::format("must be in (-1, 0.5), got {}", m.poisson_ratio));
-  m.density = s.number("density");
-  require_positive(s, "density", m.density);
+  read_elastic_constants(s, m);
 }
 
 void read_solver(const Section& s, SolverConfig& v) {
@@ -325,8 +337,8 @@ std::vector<std::string> boundary_keys(const std::string& type) {
   if (type == "enforce_particle_translation")
     return {"type", "lo", "hi", "velocity", "start", "end"};
   if (type == "enforce_particle_velocity_rotation")
-    return {"type",   "point",       "normal",   "radius", "half_height",
-            "velocity", "angular_velocity", "start", "end"};
+    return {"type",  "point", "normal", "radius", "half_height", "velocity", "angular_velocity",
+            "start", "end"};
   if (type == "surface_collider")
     return {"type", "point", "normal", "surface", "friction", "start", "end"};
   return {"type", "normal", "layers", "start", "end"};  // release_particles_sequentially
@@ -341,10 +353,10 @@ Vec3d unit_normal(const Section& s, const Vec3d& n) {
 BoundaryConfig read_boundary(const Section& s) {
   s.reject_unknown(key_names("boundary"));
   BoundaryConfig b;
-  b.type = s.choice("type", "",
-                    {"bounding_box", "cuboid", "particle_impulse", "enforce_particle_translation",
-                     "enforce_particle_velocity_rotation", "surface_collider",
-                     "release_particles_sequentially"});
+  b.type = s.choice(
+      "type", "",
+      {"bounding_box", "cuboid", "particle_impulse", "enforce_particle_translation",
+       "enforce_particle_velocity_rotation", "surface_collider", "release_particles_sequentially"});
   reject_foreign_keys(s, "boundary", b.type, boundary_keys(b.type));
   b.start = s.number("start", b.start);
   require_at_least(s, "start", b.start, 0);
@@ -585,8 +597,9 @@ Config parse_deck(const std::string& text, const std::string& source_name,
   }
   for (const Section& s : array_sections(root, "boundary", loc)) {
     if (c.solver.method != "mpm")
-      s.fail_table("[[boundary]] only applies to solver.method = \"mpm\" (the voxel solver uses "
-                   "[[fixed]], [[kinematic]], [[force]], [[collider]] and [[traction]])");
+      s.fail_table(
+          "[[boundary]] only applies to solver.method = \"mpm\" (the voxel solver uses "
+          "[[fixed]], [[kinematic]], [[force]], [[collider]] and [[traction]])");
     c.boundaries.push_back(read_boundary(s));
   }
   for (const Section& s : array_sections(root, "fixed", loc)) c.fixed.push_back(read_fixed(s));

@@ -20,7 +20,9 @@ namespace fs = std::filesystem;
 namespace {
 
 volatile std::sig_atomic_t g_signal = 0;
-extern "C" void on_mpm_signal(int sig) { g_signal = sig; }
+extern "C" void on_mpm_signal(int sig) {
+  g_signal = sig;
+}
 
 std::string format_duration(double s) {
   if (!std::isfinite(s)) return "?";
@@ -49,9 +51,10 @@ GridSpec layout_grid(const Config& cfg, const geometry::Aabb& object) {
     g.lo[a] = lo[a];
     g.cells[a] = static_cast<long>(std::ceil((hi[a] - lo[a]) / g.dx - 1e-9));
     if (g.cells[a] > 100000L)
-      throw InputError(fmt::format("{}: key 'domain.voxel_size': {} MPM cells along one axis; the "
-                                   "cell size is too small for the grid box",
-                                   cfg.source, g.cells[a]));
+      throw InputError(
+          fmt::format("{}: key 'domain.voxel_size': {} MPM cells along one axis; the "
+                      "cell size is too small for the grid box",
+                      cfg.source, g.cells[a]));
   }
   return g;
 }
@@ -73,8 +76,7 @@ void MpmSimulation::install_signal_handlers() {
   std::signal(SIGUSR1, on_mpm_signal);
 }
 
-MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed)
-    : comm_(comm), cfg_(cfg) {
+MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm_(comm), cfg_(cfg) {
   MPI_Comm_rank(comm, &rank_);
   MPI_Comm_size(comm, &size_);
   auto material = make_deck_material(cfg_);
@@ -108,8 +110,8 @@ MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed)
     log::info("mpm: static balance over {} ranks: {} to {} particles per rank (max / mean {:.3f})",
               size_, least, most, static_cast<double>(most) * size_ / static_cast<double>(n));
   log::info("mpm: {} particles ({} per cell), grid {} x {} x {} cells of {:.4g} m, material {}",
-            total_, cfg_.mpm.particles_per_axis * cfg_.mpm.particles_per_axis *
-                        cfg_.mpm.particles_per_axis,
+            total_,
+            cfg_.mpm.particles_per_axis * cfg_.mpm.particles_per_axis * cfg_.mpm.particles_per_axis,
             spec_.cells[0], spec_.cells[1], spec_.cells[2], spec_.dx, material->name());
 }
 
@@ -151,7 +153,8 @@ std::string MpmSimulation::write_checkpoint(const std::string& out_dir, const Sn
   st.extras["removed"] = static_cast<double>(solver_->removed());
   st.extras["clamped"] = static_cast<double>(solver_->clamped());
   st.particles = from ? &from->particles : &solver_->particles();
-  const std::string path = write_particle_checkpoint(comm_, out_dir, st, cfg_.output.checkpoint_keep);
+  const std::string path =
+      write_particle_checkpoint(comm_, out_dir, st, cfg_.output.checkpoint_keep);
   io_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return path;
 }
@@ -185,11 +188,13 @@ void MpmSimulation::write_frame(ParticleFrameWriter& writer, const std::string& 
   writer.write_frame(time_, static_cast<int>(step_), p, fields);
   const int index = static_cast<int>(writer.frames().back().index);
   if (cfg_.output.particles == "ply")
-    write_particle_ply(comm_, (fs::path(out_dir) / "particles" /
-                               fmt::format("particles_{:06d}.ply", index)).string(), p);
+    write_particle_ply(
+        comm_,
+        (fs::path(out_dir) / "particles" / fmt::format("particles_{:06d}.ply", index)).string(), p);
   if (cfg_.output.volumes == "vdb")
-    write_particle_vdb(comm_, (fs::path(out_dir) / "volumes" /
-                               fmt::format("volume_{:06d}.vdb", index)).string(), p, spec_.dx);
+    write_particle_vdb(
+        comm_, (fs::path(out_dir) / "volumes" / fmt::format("volume_{:06d}.vdb", index)).string(),
+        p, spec_.dx);
   io_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
@@ -216,8 +221,10 @@ MpmRunResult MpmSimulation::run(const std::string& out_dir, bool append) {
   if (rank_ == 0) {
     std::error_code ec;
     fs::create_directories(out_dir, ec);
-    if (!ec && cfg_.output.particles == "ply") fs::create_directories(fs::path(out_dir) / "particles", ec);
-    if (!ec && cfg_.output.volumes == "vdb") fs::create_directories(fs::path(out_dir) / "volumes", ec);
+    if (!ec && cfg_.output.particles == "ply")
+      fs::create_directories(fs::path(out_dir) / "particles", ec);
+    if (!ec && cfg_.output.volumes == "vdb")
+      fs::create_directories(fs::path(out_dir) / "volumes", ec);
     if (ec) error = out_dir + ": cannot create the output directory: " + ec.message();
   }
   error = io::h5::first_error(comm_, error);
@@ -282,11 +289,12 @@ MpmRunResult MpmSimulation::run(const std::string& out_dir, bool append) {
       last_print = now;
       const double wall = std::chrono::duration<double>(now - start).count();
       const double rate = (time_ - t_start) / std::max(wall, 1e-9);
-      log::info("substep {:>7}  t = {:.5g} s ({:.1f} %)  dt {:.3g} s  {:.1f} substeps/s  ETA {}"
-                "  removed {}  clamped {}",
-                step_, time_, 100 * time_ / end, dt, static_cast<double>(substeps) / std::max(wall, 1e-9),
-                format_duration((end - time_) / std::max(rate, 1e-300)), solver_->removed(),
-                solver_->clamped());
+      log::info(
+          "substep {:>7}  t = {:.5g} s ({:.1f} %)  dt {:.3g} s  {:.1f} substeps/s  ETA {}"
+          "  removed {}  clamped {}",
+          step_, time_, 100 * time_ / end, dt, static_cast<double>(substeps) / std::max(wall, 1e-9),
+          format_duration((end - time_) / std::max(rate, 1e-300)), solver_->removed(),
+          solver_->clamped());
     }
   }
   if (res.exit_code == 0) res.last_checkpoint = write_checkpoint(out_dir);

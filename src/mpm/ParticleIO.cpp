@@ -19,6 +19,7 @@
 
 #include "core/Error.hpp"
 #include "core/Log.hpp"
+#include "io/BytePack.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/FrameLayout.hpp"
 #include "io/PngPreview.hpp"
@@ -329,29 +330,8 @@ ParticleCheckpointMeta read_meta_serial(const std::string& path) {
 }
 
 // Byte packing of ParticleCheckpointMeta for the broadcast from rank 0.
-template <class T>
-void put(std::string& buffer, const T& value) {
-  buffer.append(reinterpret_cast<const char*>(&value), sizeof value);
-}
-void put(std::string& buffer, const std::string& text) {
-  put(buffer, text.size());
-  buffer += text;
-}
-struct Unpacker {
-  const std::string& buffer;
-  std::size_t pos = 0;
-  template <class T>
-  void get(T& value) {
-    std::memcpy(&value, buffer.data() + pos, sizeof value);
-    pos += sizeof value;
-  }
-  void get(std::string& text) {
-    std::size_t n = 0;
-    get(n);
-    text = buffer.substr(pos, n);
-    pos += n;
-  }
-};
+using io::bytes::put;
+using io::bytes::Unpacker;
 
 std::string pack(const ParticleCheckpointMeta& m) {
   std::string buffer;

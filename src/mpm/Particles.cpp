@@ -105,7 +105,8 @@ void Particles::compact(const std::vector<std::uint8_t>& keep) {
 void Particles::sort_by_id() {
   std::vector<std::size_t> order(size());
   std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return id[a] < id[b]; });
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return id[a] < id[b]; });
   permute_rows(id, 1, order);
   permute_rows(x, 3, order);
   permute_rows(v, 3, order);

@@ -14,14 +14,14 @@
 namespace gen4d::mpm {
 
 struct Particles {
-  std::vector<std::int64_t> id;  //!< global id, dense 0..N-1 at seeding
-  std::vector<double> x;         //!< 3 per particle, m
-  std::vector<double> v;         //!< 3 per particle, m/s
-  std::vector<double> C;         //!< 9 per particle (APIC affine velocity), 1/s, row-major
-  std::vector<double> F;         //!< 9 per particle, elastic deformation gradient, row-major
-  std::vector<double> state;     //!< kStateSize per particle (plastic / history scalars)
-  std::vector<double> mass;      //!< kg
-  std::vector<double> vol0;      //!< rest volume, m^3
+  std::vector<std::int64_t> id;    //!< global id, dense 0..N-1 at seeding
+  std::vector<double> x;           //!< 3 per particle, m
+  std::vector<double> v;           //!< 3 per particle, m/s
+  std::vector<double> C;           //!< 9 per particle (APIC affine velocity), 1/s, row-major
+  std::vector<double> F;           //!< 9 per particle, elastic deformation gradient, row-major
+  std::vector<double> state;       //!< kStateSize per particle (plastic / history scalars)
+  std::vector<double> mass;        //!< kg
+  std::vector<double> vol0;        //!< rest volume, m^3
   std::vector<std::uint8_t> flag;  //!< bit 0: frozen (not yet released); bit 1: kinematic
 
   //! Doubles per particle in a packed record (id stored as a double, exact below 2^53).

@@ -5,8 +5,8 @@
 
 namespace gen4d::mpm {
 
-Particles seed_particles(MPI_Comm comm, const GridSpec& grid, const geometry::Shape& shape,
-                         int ppa, const Material& material, const Vec3d& velocity) {
+Particles seed_particles(MPI_Comm comm, const GridSpec& grid, const geometry::Shape& shape, int ppa,
+                         const Material& material, const Vec3d& velocity) {
   int rank = 0, size = 1;
   MPI_Comm_rank(comm, &rank);
   MPI_Comm_size(comm, &size);

@@ -15,7 +15,9 @@ namespace {
 // Adding and subtracting 1.5 * 2^52 rounds a double of magnitude below 2^51 to the nearest
 // integer (ties to even) in the default rounding mode; cheaper than std::nearbyint.
 constexpr double kRound = 6755399441055744.0;
-inline double round_int(double c) { return (c + kRound) - kRound; }
+inline double round_int(double c) {
+  return (c + kRound) - kRound;
+}
 
 // Contributions are at most 2^kQuantumBits quanta, so 2^(53 - kQuantumBits) of them can meet
 // at one node before a sum could lose exactness.
@@ -27,13 +29,29 @@ double inverse_quantum(double bound) {
   return std::ldexp(1.0, kQuantumBits - std::ilogb(bound) - 1);
 }
 
-inline void bspline(double fx, double* w) {
-  w[0] = 0.5 * (1.5 - fx) * (1.5 - fx);
-  w[1] = 0.75 - (fx - 1.0) * (fx - 1.0);
-  w[2] = 0.5 * (fx - 0.5) * (fx - 0.5);
-}
+//! Quadratic B-spline stencil of a particle: the first of its 3x3x3 nodes relative to the
+//! ghosted box, the particle's offset from it in cells (fx in [0.5, 1.5)) and the weights.
+struct Stencil {
+  long base[3];
+  double fx[3], w[3][3];
 
-inline bool active(const BoundaryConfig& b, double t) { return t >= b.start && t < b.end; }
+  Stencil(const double* xp, const GridSpec& g, const parallel::Box& box) {
+    for (int a = 0; a < 3; ++a) {
+      const double X = (xp[a] - g.lo[a]) / g.dx;
+      const long b = static_cast<long>(std::floor(X - 0.5));
+      const double f = X - static_cast<double>(b);
+      fx[a] = f;
+      w[a][0] = 0.5 * (1.5 - f) * (1.5 - f);
+      w[a][1] = 0.75 - (f - 1.0) * (f - 1.0);
+      w[a][2] = 0.5 * (f - 0.5) * (f - 0.5);
+      base[a] = b - box.start[a];
+    }
+  }
+};
+
+inline bool active(const BoundaryConfig& b, double t) {
+  return t >= b.start && t < b.end;
+}
 
 inline double dot3(const double* a, const double* b) {
   return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
@@ -52,10 +70,10 @@ Solver::Solver(MPI_Comm comm, const GridSpec& grid, std::shared_ptr<const Materi
   MPI_Comm_size(comm_, &size_);
   for (int a = 0; a < 3; ++a)
     if (spec_.cells[a] < 2 * opt_.boundary_layers + 3)
-      throw InputError(fmt::format(
-          "mpm grid: {} cells along axis {} is too few; it needs at least {} (2 x "
-          "mpm.boundary_layers + 3)",
-          spec_.cells[a], "xyz"[a], 2 * opt_.boundary_layers + 3));
+      throw InputError(
+          fmt::format("mpm grid: {} cells along axis {} is too few; it needs at least {} (2 x "
+                      "mpm.boundary_layers + 3)",
+                      spec_.cells[a], "xyz"[a], 2 * opt_.boundary_layers + 3));
 }
 
 Solver::~Solver() = default;
@@ -83,8 +101,8 @@ void Solver::distribute(Particles local) {
       const long n = std::clamp(static_cast<long>(std::floor(X + 0.5)), 0L, nodes[a] - 1);
       ++hist[static_cast<std::size_t>(n)];
     }
-    MPI_Allreduce(MPI_IN_PLACE, hist.data(), static_cast<int>(hist.size()), MPI_LONG_LONG,
-                  MPI_SUM, comm_);
+    MPI_Allreduce(MPI_IN_PLACE, hist.data(), static_cast<int>(hist.size()), MPI_LONG_LONG, MPI_SUM,
+                  comm_);
     long long total = 0;
     for (auto h : hist) total += h;
     const int m = procs[a];
@@ -126,6 +144,8 @@ void Solver::distribute(Particles local) {
     MPI_Allreduce(MPI_IN_PLACE, &hi, 1, MPI_DOUBLE, MPI_MAX, comm_);
     release_range_[b] = {lo, hi};
   }
+  for (std::size_t i = 0; i < p_.size(); ++i)
+    if (frozen(i, 0.0)) p_.flag[i] |= 1;
   migrate();
 }
 
@@ -209,8 +229,8 @@ void Solver::p2g(double dt) {
     double mv = 0, a = 0;
     for (int d = 0; d < 3; ++d) mv = std::max(mv, std::abs(p_.v[3 * i + d]));
     for (int k = 0; k < 9; ++k)
-      a = std::max(a, std::abs(stress_scale * p_.vol0[i] * tau_[9 * i + k]) +
-                          std::abs(m * p_.C[9 * i + k]));
+      a = std::max(
+          a, std::abs(stress_scale * p_.vol0[i] * tau_[9 * i + k]) + std::abs(m * p_.C[9 * i + k]));
     bound[1] = std::max(bound[1], m * mv + 3 * a * 1.5 * dx);
   }
   MPI_Allreduce(MPI_IN_PLACE, bound, 2, MPI_DOUBLE, MPI_MAX, comm_);
@@ -224,16 +244,10 @@ void Solver::p2g(double dt) {
   const long gx = gb.count[0], gy = gb.count[1];
   for (std::size_t i = 0; i < n; ++i) {
     if (p_.flag[i] & 1) continue;
-    const double* xp = &p_.x[3 * i];
-    long base[3];
-    double fx[3], w[3][3];
-    for (int a = 0; a < 3; ++a) {
-      const double X = (xp[a] - spec_.lo[a]) * inv_dx;
-      base[a] = static_cast<long>(std::floor(X - 0.5));
-      fx[a] = X - static_cast<double>(base[a]);
-      bspline(fx[a], w[a]);
-      base[a] -= gb.start[a];
-    }
+    const Stencil st(&p_.x[3 * i], spec_, gb);
+    const long* base = st.base;
+    const double* fx = st.fx;
+    const auto& w = st.w;
     const double m = p_.mass[i];
     const double s = stress_scale * p_.vol0[i];
     double A[9], mv[3];
@@ -340,16 +354,10 @@ void Solver::g2p(double t, double dt) {
       p_.flag[i] &= static_cast<std::uint8_t>(~1u);
     }
     if (p_.flag[i] & 1) continue;
-    const double* xp = &p_.x[3 * i];
-    long base[3];
-    double fx[3], w[3][3];
-    for (int a = 0; a < 3; ++a) {
-      const double X = (xp[a] - spec_.lo[a]) * inv_dx;
-      base[a] = static_cast<long>(std::floor(X - 0.5));
-      fx[a] = X - static_cast<double>(base[a]);
-      bspline(fx[a], w[a]);
-      base[a] -= gb.start[a];
-    }
+    const Stencil st(&p_.x[3 * i], spec_, gb);
+    const long* base = st.base;
+    const double* fx = st.fx;
+    const auto& w = st.w;
     double vn[3] = {0, 0, 0}, B[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
     for (int c = 0; c < 3; ++c) {
       const double dz = (c - fx[2]) * dx;
@@ -401,13 +409,15 @@ void Solver::particle_conditions(double t, double dt) {
     if (bc.type == "particle_impulse") {
       parallel::ExactSum local;
       for (std::size_t i = 0; i < n; ++i)
-        if (!(p_.flag[i] & 1) && bc.region.contains({p_.x[3 * i], p_.x[3 * i + 1], p_.x[3 * i + 2]}))
+        if (!(p_.flag[i] & 1) &&
+            bc.region.contains({p_.x[3 * i], p_.x[3 * i + 1], p_.x[3 * i + 2]}))
           local.add(p_.mass[i]);
       double region_mass = 0;
       parallel::Reducer(comm_).sum(&local, &region_mass, 1);
       if (!(region_mass > 0)) continue;
       for (std::size_t i = 0; i < n; ++i)
-        if (!(p_.flag[i] & 1) && bc.region.contains({p_.x[3 * i], p_.x[3 * i + 1], p_.x[3 * i + 2]}))
+        if (!(p_.flag[i] & 1) &&
+            bc.region.contains({p_.x[3 * i], p_.x[3 * i + 1], p_.x[3 * i + 2]}))
           for (int d = 0; d < 3; ++d) p_.v[3 * i + d] += dt * bc.force[d] / region_mass;
     } else if (bc.type == "enforce_particle_translation") {
       for (std::size_t i = 0; i < n; ++i)
@@ -452,8 +462,8 @@ void Solver::check_and_confine(double t, double dt) {
     for (int k = 0; k < 9; ++k) finite &= std::isfinite(p_.F[9 * i + k]);
     const double speed = std::sqrt(dot3(v, v));
     if (!finite || speed * dt > limit) {
-      if (bad++ < 3) report.insert(report.end(), {static_cast<double>(p_.id[i]), x[0], x[1], x[2],
-                                                  speed});
+      if (bad++ < 3)
+        report.insert(report.end(), {static_cast<double>(p_.id[i]), x[0], x[1], x[2], speed});
       continue;
     }
     bool outside = false;
@@ -512,8 +522,8 @@ void Solver::check_and_confine(double t, double dt) {
 }
 
 void Solver::migrate() {
-  const long long sent =
-      static_cast<long long>(redistribute(comm_, p_, [&](std::size_t i) { return owner_of(&p_.x[3 * i]); }));
+  const long long sent = static_cast<long long>(
+      redistribute(comm_, p_, [&](std::size_t i) { return owner_of(&p_.x[3 * i]); }));
   long long total = sent;
   if (size_ > 1) MPI_Allreduce(MPI_IN_PLACE, &total, 1, MPI_LONG_LONG, MPI_SUM, comm_);
   migrated_total_ += total;
@@ -544,7 +554,8 @@ std::array<double, 3> Solver::total_momentum() const {
 
 double Solver::kinetic_energy() const {
   parallel::ExactSum s;
-  for (std::size_t i = 0; i < p_.size(); ++i) s.add(0.5 * p_.mass[i] * dot3(&p_.v[3 * i], &p_.v[3 * i]));
+  for (std::size_t i = 0; i < p_.size(); ++i)
+    s.add(0.5 * p_.mass[i] * dot3(&p_.v[3 * i], &p_.v[3 * i]));
   double out = 0;
   parallel::Reducer(comm_).sum(&s, &out, 1);
   return out;

@@ -42,12 +42,12 @@ struct GridSpec {
 
 struct SolverOptions {
   Vec3d gravity{0, 0, -9.81};
-  double max_dt = 1e-3;             //!< s
-  bool adaptive = true;             //!< false: every substep is max_dt
-  double cfl = 0.3;                 //!< dt <= cfl dx / max speed
-  double wave_cfl = 0.5;            //!< dt <= wave_cfl dx / elastic wave speed
-  bool remove_outside = false;      //!< particles leaving the grid: removed (else clamped)
-  int boundary_layers = 3;          //!< node layers of the bounding-box walls
+  double max_dt = 1e-3;              //!< s
+  bool adaptive = true;              //!< false: every substep is max_dt
+  double cfl = 0.3;                  //!< dt <= cfl dx / max speed
+  double wave_cfl = 0.5;             //!< dt <= wave_cfl dx / elastic wave speed
+  bool remove_outside = false;       //!< particles leaving the grid: removed (else clamped)
+  int boundary_layers = 3;           //!< node layers of the bounding-box walls
   double max_cells_per_substep = 1;  //!< instability guard
 };
 

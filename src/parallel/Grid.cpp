@@ -88,11 +88,10 @@ void NodeGrid::init(const std::array<std::vector<long>, 3>* ownership) {
     owned_cells_.count[d] = std::max(0L, ohi - olo);
   }
   const PetscInt* ranges[3] = {nullptr, nullptr, nullptr};
-  check(DMDAGetOwnershipRanges(dm3_, &ranges[0], &ranges[1], &ranges[2]),
-        "DMDAGetOwnershipRanges");
+  check(DMDAGetOwnershipRanges(dm3_, &ranges[0], &ranges[1], &ranges[2]), "DMDAGetOwnershipRanges");
   PetscInt m = 1, n = 1, p = 1;
-  check(DMDAGetInfo(dm3_, nullptr, nullptr, nullptr, nullptr, &m, &n, &p, nullptr, nullptr,
-                    nullptr, nullptr, nullptr, nullptr),
+  check(DMDAGetInfo(dm3_, nullptr, nullptr, nullptr, nullptr, &m, &n, &p, nullptr, nullptr, nullptr,
+                    nullptr, nullptr, nullptr),
         "DMDAGetInfo");
   const PetscInt counts[3] = {m, n, p};
   for (int a = 0; a < 3; ++a) {
