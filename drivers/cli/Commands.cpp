@@ -293,7 +293,9 @@ int dispatch(int argc, char** argv) {
       "preview",
       "Render frames of a run (voxel surface from frames.h5, or its surface sequence) "
       "to PNG images");
-  preview->add_option("run", pv_file, "frames.h5 written by gen4d run, or the run's directory")
+  preview->add_option("run", pv_file,
+                      "frames.h5 (or an MPM run's particles.h5) written by gen4d run, or the "
+                      "run's directory")
       ->required()
       ->check(CLI::ExistingPath);
   preview->add_option("--out,-o", pv_out, "Directory for the PNG files");
@@ -329,6 +331,21 @@ int dispatch(int argc, char** argv) {
     if (rank_of(MPI_COMM_WORLD) == 0) {
       const bool is_dir = fs::is_directory(pv_file);
       const fs::path run_dir = is_dir ? fs::path(pv_file) : fs::path(pv_file).parent_path();
+      const fs::path particles = is_dir ? run_dir / "particles.h5" : fs::path(pv_file);
+      if (fs::exists(particles) && particles.filename() == "particles.h5" &&
+          !fs::exists(run_dir / "frames.h5")) {
+        // An MPM run: depth-shaded particle splats seen along -y.
+        std::error_code ec;
+        fs::create_directories(pv_out, ec);
+        if (ec) throw RuntimeError("--out " + pv_out + ": cannot create directory: " + ec.message());
+        const auto list = mpm::read_particle_frame_list(particles.string());
+        const auto chosen = choose_frames(frames, static_cast<int>(list.size()), particles.string());
+        const auto written =
+            mpm::render_particle_frames(particles.string(), chosen, pv_out, pv_w, pv_h);
+        for (const auto& f : written) log::info("wrote {}", f);
+        if (pv_mp4) assemble_mp4(written, pv_out, pv_fps);
+        return 0;
+      }
       const std::string frames_file = is_dir ? (run_dir / "frames.h5").string() : pv_file;
       const std::string surface_dir = (run_dir / io::kSurfaceDir).string();
       const auto sequence = io::list_surface_sequence(surface_dir);

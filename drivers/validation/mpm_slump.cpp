@@ -2,13 +2,17 @@
 // Pashias, Boger, Summers & Glenister (J. Rheol. 40, 1179, 1996):
 //   s / H = 1 - 2 t (1 - ln 2t),  t = tau_y / (rho g H)   (valid for t < 0.5)
 // A cylinder of height H and diameter H (quarter model: slip symmetry planes x = 0, y = 0)
-// rests on a frictionless floor and is released under gravity; the slump s is H minus the
+// rests on a no-slip floor and is released under gravity; the slump s is H minus the
 // final height on the axis. Target: within 10 % of the model over a range of tau_y.
 //
 // Material: rho = 1000 kg/m^3, E = 0.2 MPa, nu = 0.3 (elastic settlement ~0.5 % of H),
-// consistency 2 Pa s, flow index 1 (Bingham). The yield criterion is von Mises with shear
-// yield stress tau_y (see the herschel_bulkley model); Pashias' one-dimensional analysis uses
-// the same tau_y as the shear yield stress.
+// consistency 20 Pa s, flow index 1 (Bingham). Pashias' model is quasi-static (the mould is
+// lifted slowly); a sudden release of a thin paste overshoots by inertia (with K = 2 Pa s the
+// slump exceeds the model by up to 70 %), so the default consistency makes the collapse
+// viscous. The floor is no-slip (pastes adhere to the plate; a frictionless floor lets the base
+// spread and the slump doubles). The yield criterion is von Mises with shear yield stress tau_y
+// (uniaxial yield sqrt(3) tau_y); Pashias' one-dimensional analysis takes the uniaxial yield
+// stress as 2 tau_y (Tresca), 13 % stronger.
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -80,22 +84,23 @@ Slump simulate(MPI_Comm comm, double tau_nd, int cells_h, double consistency) {
   r.tau = tau_nd;
   r.particles = solver->count();
   const double tc = std::sqrt(H / g);
-  double t = 0, ke_max = 0;
-  while (t < 40 * tc) {
-    r.substeps += driver::advance(*solver, t, t + 0.5 * tc);
-    const double ke = solver->kinetic_energy();
-    ke_max = std::max(ke_max, ke);
-    if (t > 4 * tc && ke < 1e-5 * ke_max) break;
+  const mpm::Particles& p = solver->particles();
+  // Height on the axis: the highest particle within 1.5 cells of it, plus half a spacing.
+  auto axis_height = [&] {
+    return driver::particle_max(comm, p, [&](std::size_t i) {
+             return std::hypot(p.x[3 * i], p.x[3 * i + 1]) < 1.5 * dx ? p.x[3 * i + 2] : -1e300;
+           }) +
+           0.5 * dx / ppa;
+  };
+  // Run until the height on the axis has settled: it moves less than 1e-3 H in 2 tc.
+  double t = 0, h = axis_height(), h_before = h;
+  while (t < 60 * tc) {
+    r.substeps += driver::advance(*solver, t, t + 2 * tc);
+    h = axis_height();
+    if (t > 4 * tc && std::abs(h - h_before) < 1e-3 * H) break;
+    h_before = h;
   }
   r.t_end = t;
-  const mpm::Particles& p = solver->particles();
-  const double h = driver::particle_max(comm, p,
-                                        [&](std::size_t i) {
-                                          return std::hypot(p.x[3 * i], p.x[3 * i + 1]) < 1.5 * dx
-                                                     ? p.x[3 * i + 2]
-                                                     : -1e300;
-                                        }) +
-                   0.5 * dx / ppa;
   r.s_over_h = (H - h) / H;
   r.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
@@ -148,7 +153,7 @@ int run(const std::string& list, int cells_h, double consistency, const std::str
 int main(int argc, char** argv) {
   std::string taus = "0.05,0.1,0.15,0.2,0.3", csv;
   int cells = 20;
-  double k = 2;
+  double k = 20;
   return gen4d::driver::main_with(
       argc, argv, "Slump of a Herschel-Bulkley cylinder vs Pashias et al. 1996",
       [&](CLI::App& app) {

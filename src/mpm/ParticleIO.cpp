@@ -1110,4 +1110,103 @@ void write_particle_png(MPI_Comm comm, const std::string& path, const Particles&
   throw_if_any<RuntimeError>(comm, error);
 }
 
+// ---- reading frames back -------------------------------------------------------------------
+
+namespace {
+h5::Handle open_frames_file(const std::string& path, std::int64_t& total) {
+  h5::Handle file = h5::open_file_serial(path);
+  if (!h5::has_attr(file.get(), "format") ||
+      h5::read_string_attr(file.get(), "format", path) != kParticleFramesFormat)
+    throw InputError(path + ": not a gen4d particle frames file");
+  total = h5::read_long_attr(file.get(), "particle_count", path);
+  if (total < 0) throw InputError(path + ": negative particle_count");
+  return file;
+}
+}  // namespace
+
+std::vector<ParticleFrameInfo> read_particle_frame_list(const std::string& h5_path) {
+  std::int64_t total = 0;
+  h5::Handle file = open_frames_file(h5_path, total);
+  return list_particle_frames(file.get(), h5_path);
+}
+
+Particles read_particle_frame(const std::string& h5_path, int index) {
+  std::int64_t total = 0;
+  h5::Handle file = open_frames_file(h5_path, total);
+  const std::string group = fmt::format("{}/{:06d}", io::kFramesGroup, index);
+  const std::string where = h5_path + " " + group;
+  const auto n = static_cast<hsize_t>(total);
+  std::vector<double> x(3 * n), v(3 * n);
+  std::vector<std::uint8_t> alive(n);
+  {
+    h5::Handle d = h5::open_rows_dataset(file.get(), group + "/position", H5T_FLOAT, n, 3, h5_path);
+    h5::read_all(d.get(), H5T_NATIVE_DOUBLE, x.data(), where + "/position");
+  }
+  {
+    h5::Handle d = h5::open_rows_dataset(file.get(), group + "/velocity", H5T_FLOAT, n, 3, h5_path);
+    h5::read_all(d.get(), H5T_NATIVE_DOUBLE, v.data(), where + "/velocity");
+  }
+  {
+    h5::Handle d = h5::open_rows_dataset(file.get(), group + "/alive", H5T_INTEGER, n, 1, h5_path);
+    h5::read_all(d.get(), H5T_NATIVE_UINT8, alive.data(), where + "/alive");
+  }
+  Particles p;
+  const double zero[kStateSize] = {};
+  for (hsize_t i = 0; i < n; ++i)
+    if (alive[i]) p.push_back(static_cast<std::int64_t>(i), &x[3 * i], &v[3 * i], 0, 0, zero);
+  return p;
+}
+
+std::vector<std::string> render_particle_frames(const std::string& h5_path,
+                                                const std::vector<int>& frames,
+                                                const std::string& out_dir, int width, int height) {
+  const auto list = read_particle_frame_list(h5_path);
+  ParticleView view;
+  view.width = width;
+  view.height = height;
+  view.lo = {1e300, 1e300, 1e300};
+  view.hi = {-1e300, -1e300, -1e300};
+  std::vector<Particles> loaded;
+  for (int f : frames) {
+    loaded.push_back(read_particle_frame(h5_path, list.at(static_cast<std::size_t>(f)).index));
+    const Particles& p = loaded.back();
+    for (std::size_t i = 0; i < p.size(); ++i)
+      for (int a = 0; a < 3; ++a) {
+        view.lo[a] = std::min(view.lo[a], p.x[3 * i + a]);
+        view.hi[a] = std::max(view.hi[a], p.x[3 * i + a]);
+      }
+  }
+  for (int a = 0; a < 3; ++a) {
+    const double pad = 0.05 * (view.hi[a] - view.lo[a]) + 1e-9;
+    view.lo[a] -= pad;
+    view.hi[a] += pad;
+  }
+  // Splat radius: half the particle spacing of the first frame (its bounding box shared by
+  // its particles), in pixels of the fitted view.
+  if (!loaded.empty() && loaded[0].size() > 0) {
+    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+    for (std::size_t i = 0; i < loaded[0].size(); ++i)
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = std::min(lo[a], loaded[0].x[3 * i + a]);
+        hi[a] = std::max(hi[a], loaded[0].x[3 * i + a]);
+      }
+    const double vol = std::max(hi[0] - lo[0], 1e-12) * std::max(hi[1] - lo[1], 1e-12) *
+                       std::max(hi[2] - lo[2], 1e-12);
+    const double spacing = std::cbrt(vol / static_cast<double>(loaded[0].size()));
+    const double per_pixel = std::max((view.hi[0] - view.lo[0]) / width,
+                                      (view.hi[2] - view.lo[2]) / height);
+    view.point_radius = std::clamp(static_cast<int>(0.5 * spacing / per_pixel), 1, 8);
+  }
+  std::vector<std::string> written;
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    const std::string path = (std::filesystem::path(out_dir) /
+                              fmt::format("particles_{:06d}.png",
+                                          list[static_cast<std::size_t>(frames[k])].index))
+                                 .string();
+    write_particle_png(MPI_COMM_SELF, path, loaded[k], view);
+    written.push_back(path);
+  }
+  return written;
+}
+
 }  // namespace gen4d::mpm

@@ -191,4 +191,17 @@ struct ParticleView {
 void write_particle_png(MPI_Comm comm, const std::string& path, const Particles& particles,
                         const ParticleView& view);
 
+// ---- reading frames back (serial, for previews) --------------------------------------------
+
+//! The frames of a particle frames file, read on this process alone. InputError naming the
+//! file for anything that is not a gen4d particle frames file.
+std::vector<ParticleFrameInfo> read_particle_frame_list(const std::string& h5_path);
+//! Positions and velocities of the alive particles of frame `index` (ids kept), serial.
+Particles read_particle_frame(const std::string& h5_path, int index);
+//! Renders frames (positions in `frames`) of a particle frames file to OUT/particles_NNNNNN.png
+//! looking along -y, one view box framing every chosen frame; returns the files. Serial.
+std::vector<std::string> render_particle_frames(const std::string& h5_path,
+                                                const std::vector<int>& frames,
+                                                const std::string& out_dir, int width, int height);
+
 }  // namespace gen4d::mpm
