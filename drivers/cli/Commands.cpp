@@ -293,9 +293,10 @@ int dispatch(int argc, char** argv) {
       "preview",
       "Render frames of a run (voxel surface from frames.h5, or its surface sequence) "
       "to PNG images");
-  preview->add_option("run", pv_file,
-                      "frames.h5 (or an MPM run's particles.h5) written by gen4d run, or the "
-                      "run's directory")
+  preview
+      ->add_option("run", pv_file,
+                   "frames.h5 (or an MPM run's particles.h5) written by gen4d run, or the "
+                   "run's directory")
       ->required()
       ->check(CLI::ExistingPath);
   preview->add_option("--out,-o", pv_out, "Directory for the PNG files");
@@ -337,9 +338,11 @@ int dispatch(int argc, char** argv) {
         // An MPM run: depth-shaded particle splats seen along -y.
         std::error_code ec;
         fs::create_directories(pv_out, ec);
-        if (ec) throw RuntimeError("--out " + pv_out + ": cannot create directory: " + ec.message());
+        if (ec)
+          throw RuntimeError("--out " + pv_out + ": cannot create directory: " + ec.message());
         const auto list = mpm::read_particle_frame_list(particles.string());
-        const auto chosen = choose_frames(frames, static_cast<int>(list.size()), particles.string());
+        const auto chosen =
+            choose_frames(frames, static_cast<int>(list.size()), particles.string());
         const auto written =
             mpm::render_particle_frames(particles.string(), chosen, pv_out, pv_w, pv_h);
         for (const auto& f : written) log::info("wrote {}", f);

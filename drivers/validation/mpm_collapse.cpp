@@ -158,7 +158,7 @@ int run(const std::string& ratios, int cells_d0, double phi, double floor_mu,
 
 int main(int argc, char** argv) {
   std::string ratios = "0.5,1,2,4,8", csv;
-  int cells = 10;
+  int cells = 16;
   double phi = 30, mu = std::tan(30 * M_PI / 180);
   return gen4d::driver::main_with(
       argc, argv, "Granular column collapse (Drucker-Prager sand) vs Lube et al. 2005",

@@ -87,9 +87,11 @@ Slump simulate(MPI_Comm comm, double tau_nd, int cells_h, double consistency) {
   const mpm::Particles& p = solver->particles();
   // Height on the axis: the highest particle within 1.5 cells of it, plus half a spacing.
   auto axis_height = [&] {
-    return driver::particle_max(comm, p, [&](std::size_t i) {
-             return std::hypot(p.x[3 * i], p.x[3 * i + 1]) < 1.5 * dx ? p.x[3 * i + 2] : -1e300;
-           }) +
+    return driver::particle_max(
+               comm, p,
+               [&](std::size_t i) {
+                 return std::hypot(p.x[3 * i], p.x[3 * i + 1]) < 1.5 * dx ? p.x[3 * i + 2] : -1e300;
+               }) +
            0.5 * dx / ppa;
   };
   // Run until the height on the axis has settled: it moves less than 1e-3 H in 2 tc.

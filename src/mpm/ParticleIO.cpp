@@ -1193,16 +1193,16 @@ std::vector<std::string> render_particle_frames(const std::string& h5_path,
     const double vol = std::max(hi[0] - lo[0], 1e-12) * std::max(hi[1] - lo[1], 1e-12) *
                        std::max(hi[2] - lo[2], 1e-12);
     const double spacing = std::cbrt(vol / static_cast<double>(loaded[0].size()));
-    const double per_pixel = std::max((view.hi[0] - view.lo[0]) / width,
-                                      (view.hi[2] - view.lo[2]) / height);
+    const double per_pixel =
+        std::max((view.hi[0] - view.lo[0]) / width, (view.hi[2] - view.lo[2]) / height);
     view.point_radius = std::clamp(static_cast<int>(0.5 * spacing / per_pixel), 1, 8);
   }
   std::vector<std::string> written;
   for (std::size_t k = 0; k < frames.size(); ++k) {
-    const std::string path = (std::filesystem::path(out_dir) /
-                              fmt::format("particles_{:06d}.png",
-                                          list[static_cast<std::size_t>(frames[k])].index))
-                                 .string();
+    const std::string path =
+        (std::filesystem::path(out_dir) /
+         fmt::format("particles_{:06d}.png", list[static_cast<std::size_t>(frames[k])].index))
+            .string();
     write_particle_png(MPI_COMM_SELF, path, loaded[k], view);
     written.push_back(path);
   }
