@@ -87,6 +87,18 @@ inline Mat3 from_principal(const Mat3& U, const Vec3& d) {
   return materials::compose_svd(U, d, U);
 }
 
+//! StVK-Hencky Kirchhoff stress of n row-major F's: the elastic part shared by the plastic
+//! models (their stress() evaluates the current elastic F without a return map).
+inline void hencky_stress_batch(std::size_t n, const double* F, double mu, double lambda,
+                                double* tau) {
+  for (std::size_t i = 0; i < n; ++i) {
+    Mat3 U, V;
+    Vec3 s;
+    materials::svd3(load3x3(F + 9 * i), U, s, V);
+    store3x3(from_principal(U, hencky_principal_tau(hencky_strain(s), mu, lambda)), tau + 9 * i);
+  }
+}
+
 //! Root of a strictly decreasing scalar function g on [0, hi] with g(0) > 0 >= g(hi), by Newton
 //! steps safeguarded with bisection; `eval(x, g, dg)` gives g(x) and g'(x) (which may be
 //! infinite). Stops at |g| <= tol or a bracket at rounding level. While the bracket spans more

@@ -186,13 +186,7 @@ class VonMises final : public ElasticBase {
       von_mises_kernel(c_, F + 9 * i, state + kStateSize * i, tau + 9 * i, dt);
   }
   void stress(std::size_t n, const double* F, const double*, double* tau) const override {
-    for (std::size_t i = 0; i < n; ++i) {
-      Mat3 U, V;
-      Vec3 s;
-      materials::svd3(detail::load3x3(F + 9 * i), U, s, V);
-      const Vec3 t = detail::hencky_principal_tau(detail::hencky_strain(s), mu_, lambda_);
-      detail::store3x3(detail::from_principal(U, t), tau + 9 * i);
-    }
+    detail::hencky_stress_batch(n, F, mu_, lambda_, tau);
   }
 
  private:
