@@ -92,6 +92,12 @@ MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm
   opt.boundary_layers = cfg_.mpm.boundary_layers;
   opt.max_cells_per_substep = cfg_.mpm.max_cells_per_substep;
   solver_ = std::make_unique<Solver>(comm_, spec_, material, opt, cfg_.boundaries);
+  const double limit = spec_.dx / std::max(material->wave_speed(), 1e-300);
+  if (rank_ == 0 && !opt.adaptive && cfg_.dt > limit)
+    log::warn(
+        "mpm.substep = \"fixed\": simulation.dt = {:.3g} s is {:.1f}x the elastic stability "
+        "limit dx / c = {:.3g} s; the instability guard will stop the run if it blows up",
+        cfg_.dt, cfg_.dt / limit, limit);
   if (!seed) return;
   Particles p = seed_particles(comm_, spec_, *shape, cfg_.mpm.particles_per_axis, *material,
                                cfg_.mpm.velocity);
