@@ -42,6 +42,23 @@ assert moved > 0.05, moved
 print(f"final frame identical at 2 ranks, 1 rank and after a 2 -> 1 rank restart; {last[0][0].shape[0]} particles")
 PY
 
+# Batch signals: SIGUSR1 writes a checkpoint and the run goes on; SIGTERM writes one and stops
+# with exit 1; the restart then finishes the run.
+"$mpiexec" -n 2 "$gen4d" run "$deck" --out "$dir/sig" "${small[@]}" --set simulation.end_time=5 \
+  > "$dir/sig.log" 2>&1 &
+pid=$!
+for _ in $(seq 1 600); do grep -q "^substep" "$dir/sig.log" 2>/dev/null && break; sleep 0.1; done
+kill -USR1 $pid
+for _ in $(seq 1 600); do grep -q "received SIGUSR1" "$dir/sig.log" && break; sleep 0.1; done
+grep -q "received SIGUSR1" "$dir/sig.log" || { kill -TERM $pid; fail "no SIGUSR1 checkpoint"; }
+kill -TERM $pid
+wait $pid; code=$?
+[[ $code -eq 1 ]] || { cat "$dir/sig.log"; fail "SIGTERM run exit $code"; }
+grep -q "received SIGTERM: .*; stopping" "$dir/sig.log" || fail "no SIGTERM message"
+ck=$(ls "$dir/sig"/checkpoint_*.h5 | tail -1)
+"$gen4d" restart "$ck" --set simulation.end_time=0.5 > "$dir/sig-restart.log" 2>&1 ||
+  { cat "$dir/sig-restart.log"; fail "restart after SIGTERM"; }
+
 # Thrown out of a grid without walls: removed and counted, never a crash.
 "$mpiexec" -n 2 "$gen4d" run "$deck" --out "$dir/out" "${small[@]}" --set "mpm.velocity=[8.0, 0.0, 3.0]" \
   --set mpm.out_of_domain=remove --set mpm.boundary_layers=0 > "$dir/out.log" 2>&1 || { cat "$dir/out.log"; fail "leaving run"; }

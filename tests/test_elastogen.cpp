@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "core/Error.hpp"
+#include "core/Signals.hpp"
 #include "elastogen_test_util.hpp"
 #include "io/Checkpoint.hpp"
 
@@ -265,7 +266,7 @@ TEST(Elastogen, SigtermWritesAUsableCheckpoint) {
   const std::string d = scratch_dir("sigterm");
   const Config cfg = wobble({"output.progress_interval=1e9"});
   elastogen::Simulation sim(MPI_COMM_WORLD, cfg);
-  elastogen::Simulation::install_signal_handlers();
+  signals::install();
   if (test::world_rank() == 0) std::raise(SIGTERM);  // one rank is enough: ranks agree
   const auto res = sim.run(d, false);
   std::signal(SIGTERM, SIG_DFL);

@@ -33,13 +33,7 @@ std::shared_ptr<const mpm::Material> material(const std::string& model,
 }
 
 BoundaryConfig plane(const char* surface, Vec3d point, Vec3d normal, double mu = 0) {
-  BoundaryConfig b;
-  b.type = "surface_collider";
-  b.surface = surface;
-  b.point = point;
-  b.normal = normal;
-  b.friction = mu;
-  return b;
+  return mpm::surface_collider(surface, point, normal, mu);
 }
 
 struct Scene {

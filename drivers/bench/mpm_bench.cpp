@@ -44,12 +44,7 @@ std::string run_case(const char* name, const std::string& model, long target, in
   auto material = driver::mpm_material(model, params);
   mpm::SolverOptions opt;
   opt.max_dt = 1e-3;
-  BoundaryConfig floor;
-  floor.type = "surface_collider";
-  floor.surface = "separate";
-  floor.friction = 0.5;
-  floor.point = {0, 0, 0};
-  floor.normal = {0, 0, 1};
+  const BoundaryConfig floor = mpm::surface_collider("separate", {0, 0, 0}, {0, 0, 1}, 0.5);
   const geometry::Box block(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 1, 1));
   auto solver = driver::mpm_solver(comm, g, material, opt, {floor}, block, 2, {0.5, 0, -2});
   const long long particles = solver->count();

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "DefaultDeck.hpp"
@@ -21,6 +22,7 @@
 #include "core/Deck.hpp"
 #include "core/Error.hpp"
 #include "core/Log.hpp"
+#include "core/Signals.hpp"
 #include "elastogen/Simulation.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/FrameReader.hpp"
@@ -58,7 +60,7 @@ void check_output_dir(const std::string& out, bool overwrite, const char* frames
 }
 
 int run_mpm(mpm::MpmSimulation& sim, const std::string& out, bool append) {
-  mpm::MpmSimulation::install_signal_handlers();
+  signals::install();
   const auto res = sim.run(out, append);
   if (res.exit_code == 0)
     log::info("done: {} substeps in {:.2f} s; particles {}/particles.h5 (+ .xdmf), checkpoint {}",
@@ -85,7 +87,7 @@ bool is_mpm_checkpoint(const std::string& path) {
 }
 
 int run_simulation(elastogen::Simulation& sim, const std::string& out, bool append) {
-  elastogen::Simulation::install_signal_handlers();
+  signals::install();
   const auto res = sim.run(out, append);
   if (res.exit_code == 0)
     log::info("done: {} steps in {:.2f} s; frames {}/frames.h5 (+ .xdmf), checkpoint {}", res.steps,
@@ -107,30 +109,35 @@ int cmd_run(const RunArgs& a) {
   return run_simulation(sim, out, false);
 }
 
-int cmd_restart(const std::string& checkpoint, const std::string& out_arg,
-                const std::vector<std::string>& sets) {
-  if (is_mpm_checkpoint(checkpoint)) {
-    const auto meta = mpm::read_particle_checkpoint_meta(MPI_COMM_WORLD, checkpoint);
-    Config cfg = parse_deck(meta.deck_text, checkpoint + " (stored deck)", ".", sets);
-    const std::string out = out_arg.empty() ? fs::path(checkpoint).parent_path().string() : out_arg;
-    const std::string dir = out.empty() ? "." : out;
-    mpm::MpmSimulation sim(MPI_COMM_WORLD, cfg, false);
-    sim.load_checkpoint(checkpoint);
-    int exists = 0;
-    if (rank_of(MPI_COMM_WORLD) == 0) exists = fs::exists(fs::path(dir) / "particles.h5") ? 1 : 0;
-    MPI_Bcast(&exists, 1, MPI_INT, 0, MPI_COMM_WORLD);
-    return run_mpm(sim, dir, exists != 0);
-  }
-  const io::CheckpointMeta meta = io::read_checkpoint_meta(MPI_COMM_WORLD, checkpoint);
-  Config cfg = parse_deck(meta.deck_text, checkpoint + " (stored deck)", ".", sets);
+//! Where a restart writes (--out, else the checkpoint's folder) and whether that folder already
+//! holds the run's frames file (`frames`), which the restart then continues. Collective.
+std::pair<std::string, bool> restart_target(const std::string& checkpoint,
+                                            const std::string& out_arg, const char* frames) {
   const std::string out = out_arg.empty() ? fs::path(checkpoint).parent_path().string() : out_arg;
   const std::string dir = out.empty() ? "." : out;
+  int exists = 0;
+  if (rank_of(MPI_COMM_WORLD) == 0) exists = fs::exists(fs::path(dir) / frames) ? 1 : 0;
+  MPI_Bcast(&exists, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  return {dir, exists != 0};
+}
+
+int cmd_restart(const std::string& checkpoint, const std::string& out_arg,
+                const std::vector<std::string>& sets) {
+  const std::string stored = checkpoint + " (stored deck)";
+  if (is_mpm_checkpoint(checkpoint)) {
+    const auto meta = mpm::read_particle_checkpoint_meta(MPI_COMM_WORLD, checkpoint);
+    Config cfg = parse_deck(meta.deck_text, stored, ".", sets);
+    mpm::MpmSimulation sim(MPI_COMM_WORLD, cfg, false);
+    sim.load_checkpoint(checkpoint);
+    const auto [dir, append] = restart_target(checkpoint, out_arg, "particles.h5");
+    return run_mpm(sim, dir, append);
+  }
+  const io::CheckpointMeta meta = io::read_checkpoint_meta(MPI_COMM_WORLD, checkpoint);
+  Config cfg = parse_deck(meta.deck_text, stored, ".", sets);
   elastogen::Simulation sim(MPI_COMM_WORLD, cfg);
   sim.load_checkpoint(checkpoint);
-  int exists = 0;
-  if (rank_of(MPI_COMM_WORLD) == 0) exists = fs::exists(fs::path(dir) / "frames.h5") ? 1 : 0;
-  MPI_Bcast(&exists, 1, MPI_INT, 0, MPI_COMM_WORLD);
-  return run_simulation(sim, dir, exists != 0);
+  const auto [dir, append] = restart_target(checkpoint, out_arg, "frames.h5");
+  return run_simulation(sim, dir, append);
 }
 
 std::string gpus_seen() {

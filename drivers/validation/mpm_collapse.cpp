@@ -52,19 +52,12 @@ Collapse simulate(MPI_Comm comm, double a, int cells_d0, double phi, double floo
   mpm::SolverOptions opt;
   opt.gravity = {0, 0, -g};
   opt.max_dt = 1e-3;
-  auto plane = [](const char* surface, double mu, Vec3d point, Vec3d normal) {
-    BoundaryConfig b;
-    b.type = "surface_collider";
-    b.surface = surface;
-    b.friction = mu;
-    b.point = point;
-    b.normal = normal;
-    return b;
-  };
   const double w = thick * dx;
   std::vector<BoundaryConfig> bcs = {
-      plane("separate", floor_mu, {0, 0, 0}, {0, 0, 1}), plane("slip", 0, {0, 0, 0}, {1, 0, 0}),
-      plane("slip", 0, {0, 0, 0}, {0, 1, 0}), plane("slip", 0, {0, w, 0}, {0, -1, 0})};
+      mpm::surface_collider("separate", {0, 0, 0}, {0, 0, 1}, floor_mu),
+      mpm::surface_collider("slip", {0, 0, 0}, {1, 0, 0}),
+      mpm::surface_collider("slip", {0, 0, 0}, {0, 1, 0}),
+      mpm::surface_collider("slip", {0, w, 0}, {0, -1, 0})};
   const geometry::Box column(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(d0, w, h0));
   const auto start = std::chrono::steady_clock::now();
   auto solver = driver::mpm_solver(comm, grid, material, opt, bcs, column, ppa);

@@ -53,16 +53,9 @@ Slump simulate(MPI_Comm comm, double tau_nd, int cells_h, double consistency) {
   mpm::SolverOptions opt;
   opt.gravity = {0, 0, -g};
   opt.max_dt = 1e-3;
-  auto plane = [](const char* surface, Vec3d normal) {
-    BoundaryConfig b;
-    b.type = "surface_collider";
-    b.surface = surface;
-    b.point = {0, 0, 0};
-    b.normal = normal;
-    return b;
-  };
-  std::vector<BoundaryConfig> bcs = {plane("sticky", {0, 0, 1}), plane("slip", {1, 0, 0}),
-                                     plane("slip", {0, 1, 0})};
+  std::vector<BoundaryConfig> bcs = {mpm::surface_collider("sticky", {0, 0, 0}, {0, 0, 1}),
+                                     mpm::surface_collider("slip", {0, 0, 0}, {1, 0, 0}),
+                                     mpm::surface_collider("slip", {0, 0, 0}, {0, 1, 0})};
   struct QuarterCylinder : geometry::Shape {
     double R, H;
     bool inside(const Eigen::Vector3d& p) const override {

@@ -158,17 +158,12 @@ Result simulate(MPI_Comm comm, const TaylorTest& t, int radius_cells, int ppa, b
   opt.gravity = {0, 0, 0};
   opt.max_dt = 1e-6;
   opt.wave_cfl = 0.4;
-  std::vector<BoundaryConfig> bcs(quarter ? 3 : 1);
-  bcs[0].type = "surface_collider";
-  bcs[0].surface = "separate";
-  bcs[0].friction = friction;
-  bcs[0].point = {0, 0, 0};
-  bcs[0].normal = {0, 0, 1};
-  for (int a = 0; a < (quarter ? 2 : 0); ++a) {
-    bcs[1 + a].type = "surface_collider";
-    bcs[1 + a].surface = "slip";
-    bcs[1 + a].point = {0, 0, 0};
-    bcs[1 + a].normal = {a == 0 ? 1.0 : 0.0, a == 1 ? 1.0 : 0.0, 0};
+  // The anvil, and for a quarter rod the two symmetry planes.
+  std::vector<BoundaryConfig> bcs = {
+      mpm::surface_collider("separate", {0, 0, 0}, {0, 0, 1}, friction)};
+  if (quarter) {
+    bcs.push_back(mpm::surface_collider("slip", {0, 0, 0}, {1, 0, 0}));
+    bcs.push_back(mpm::surface_collider("slip", {0, 0, 0}, {0, 1, 0}));
   }
   // The rod's bottom layer of particles starts half a spacing above the anvil plane.
   const double z0 = 0.0;

@@ -11,6 +11,7 @@
 #include "core/Deck.hpp"
 #include "core/Error.hpp"
 #include "core/Log.hpp"
+#include "core/Signals.hpp"
 #include "core/Progress.hpp"
 #include "geometry/Shape.hpp"
 #include "io/Checkpoint.hpp"
@@ -19,7 +20,6 @@
 namespace gen4d::elastogen {
 
 namespace {
-volatile std::sig_atomic_t g_signal = 0;
 
 //! Runs `work` on rank 0 only; if it throws, every rank throws a RuntimeError (rank 0 with
 //! the original message, the others with `elsewhere`). Collective.
@@ -36,10 +36,6 @@ void on_rank0(MPI_Comm comm, int rank, const std::string& elsewhere,
   int failed = error.empty() ? 0 : 1;
   MPI_Bcast(&failed, 1, MPI_INT, 0, comm);
   if (failed) throw RuntimeError(rank == 0 ? error : elsewhere);
-}
-
-extern "C" void on_signal(int sig) {
-  g_signal = sig;
 }
 
 io::NodeBox to_io(const Box& b) {
@@ -61,11 +57,6 @@ DomainLayout layout_domain(const Config& cfg, const geometry::Shape& shape) {
                        " nodes along one axis; the voxel size is too small for the object");
   }
   return d;
-}
-
-void Simulation::install_signal_handlers() {
-  std::signal(SIGTERM, on_signal);
-  std::signal(SIGUSR1, on_signal);
 }
 
 Simulation::Simulation(MPI_Comm comm, const Config& cfg) : comm_(comm), cfg_(cfg) {
@@ -274,14 +265,6 @@ void Simulation::write_surface(long index) {
   surface_write_seconds_ += MPI_Wtime() - gathered;
 }
 
-int Simulation::pending_signal() {
-  const int local = static_cast<int>(g_signal);
-  int sig = 0;
-  MPI_Allreduce(&local, &sig, 1, MPI_INT, MPI_MAX, comm_);
-  if (sig != 0) g_signal = 0;
-  return sig;
-}
-
 RunResult Simulation::run(const std::string& out_dir, bool append) {
   RunResult res;
   auto writer = open_frames(out_dir, append);
@@ -301,7 +284,7 @@ RunResult Simulation::run(const std::string& out_dir, bool append) {
           "loop(s)",
           step_, st.accuracy, st.extra);
     if (time_ + 1e-12 * dt >= next_frame_time_ || step_ == total_steps) write_frame(*writer);
-    const int sig = pending_signal();
+    const int sig = signals::pending(comm_);
     const bool periodic = cfg_.output.checkpoint_every > 0 &&
                           step_ % cfg_.output.checkpoint_every == 0 && step_ < total_steps;
     if (sig != 0 || periodic) res.last_checkpoint = write_checkpoint(out_dir);

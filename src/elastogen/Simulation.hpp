@@ -56,9 +56,6 @@ class Simulation {
   std::vector<double> owned_positions() const;
   std::vector<double> owned_velocities() const;
 
-  //! Installs SIGTERM/SIGUSR1 handlers that request a checkpoint at the next step.
-  static void install_signal_handlers();
-
  private:
   std::vector<double> pack_owned(const std::vector<double>& field) const;
   void unpack_owned(const std::vector<double>& packed, std::vector<double>& field) const;
@@ -72,8 +69,6 @@ class Simulation {
   void open_surface(const std::string& out_dir, const io::FrameWriter& writer);
   //! Writes the surface of frame `index` (rank 0 writes; every rank evaluates). Collective.
   void write_surface(long index);
-  //! The signal any rank received since the last call (0 if none); collective.
-  int pending_signal();
   void report_timers(double wall, long steps) const;
 
   MPI_Comm comm_;

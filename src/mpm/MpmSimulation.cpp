@@ -9,6 +9,8 @@
 #include <filesystem>
 
 #include "core/Log.hpp"
+#include "core/Progress.hpp"
+#include "core/Signals.hpp"
 #include "geometry/Shape.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/Hdf5.hpp"
@@ -16,22 +18,6 @@
 
 namespace gen4d::mpm {
 namespace fs = std::filesystem;
-
-namespace {
-
-volatile std::sig_atomic_t g_signal = 0;
-extern "C" void on_mpm_signal(int sig) {
-  g_signal = sig;
-}
-
-std::string format_duration(double s) {
-  if (!std::isfinite(s)) return "?";
-  if (s < 60) return fmt::format("{:.0f}s", s);
-  if (s < 3600) return fmt::format("{:.0f}m{:02.0f}s", std::floor(s / 60), std::fmod(s, 60));
-  return fmt::format("{:.0f}h{:02.0f}m", std::floor(s / 3600), std::fmod(s / 60, 60));
-}
-
-}  // namespace
 
 GridSpec layout_grid(const Config& cfg, const geometry::Aabb& object) {
   GridSpec g;
@@ -69,11 +55,6 @@ std::shared_ptr<const Material> make_deck_material(const Config& cfg) {
   p.values["density"] = cfg.material.density;
   p.source = cfg.source;
   return make_material(p);
-}
-
-void MpmSimulation::install_signal_handlers() {
-  std::signal(SIGTERM, on_mpm_signal);
-  std::signal(SIGUSR1, on_mpm_signal);
 }
 
 MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm_(comm), cfg_(cfg) {
@@ -212,14 +193,6 @@ void MpmSimulation::take_snapshot() {
   snapshot_.next_frame_time = next_frame_time_;
 }
 
-int MpmSimulation::pending_signal() {
-  const int local = static_cast<int>(g_signal);
-  int sig = 0;
-  MPI_Allreduce(&local, &sig, 1, MPI_INT, MPI_MAX, comm_);
-  if (sig != 0) g_signal = 0;
-  return sig;
-}
-
 MpmRunResult MpmSimulation::run(const std::string& out_dir, bool append) {
   MpmRunResult res;
   // Output folders (rank 0 creates; a failure reaches every rank).
@@ -281,13 +254,17 @@ MpmRunResult MpmSimulation::run(const std::string& out_dir, bool append) {
     }
     const bool periodic =
         cfg_.output.checkpoint_every > 0 && step_ % cfg_.output.checkpoint_every == 0;
-    const int sig = (substeps % 16 == 0 || periodic) ? pending_signal() : 0;
+    const int sig = (substeps % 16 == 0 || periodic) ? signals::pending(comm_) : 0;
     if (periodic || sig) res.last_checkpoint = write_checkpoint(out_dir);
     if (sig) {
-      log::info("signal {}: checkpoint {} written at substep {}, t = {:.6g} s; stopping", sig,
-                res.last_checkpoint, step_, time_);
-      res.exit_code = 1;
-      break;
+      // SIGUSR1: checkpoint and go on; SIGTERM: checkpoint and stop (as the voxel solver).
+      log::info("received {}: checkpoint {} written at substep {}, t = {:.6g} s{}",
+                sig == SIGTERM ? "SIGTERM" : "SIGUSR1", res.last_checkpoint, step_, time_,
+                sig == SIGTERM ? "; stopping" : "");
+      if (sig == SIGTERM) {
+        res.exit_code = 1;
+        break;
+      }
     }
     const auto now = std::chrono::steady_clock::now();
     if (std::chrono::duration<double>(now - last_print).count() >= cfg_.output.progress_interval ||
@@ -299,7 +276,7 @@ MpmRunResult MpmSimulation::run(const std::string& out_dir, bool append) {
           "substep {:>7}  t = {:.5g} s ({:.1f} %)  dt {:.3g} s  {:.1f} substeps/s  ETA {}"
           "  removed {}  clamped {}",
           step_, time_, 100 * time_ / end, dt, static_cast<double>(substeps) / std::max(wall, 1e-9),
-          format_duration((end - time_) / std::max(rate, 1e-300)), solver_->removed(),
+          ProgressLog::format_duration((end - time_) / std::max(rate, 1e-300)), solver_->removed(),
           solver_->clamped());
     }
   }

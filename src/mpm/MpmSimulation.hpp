@@ -45,8 +45,6 @@ class MpmSimulation {
   double time() const { return time_; }
   std::int64_t total_particles() const { return total_; }
 
-  static void install_signal_handlers();
-
  private:
   struct Snapshot {
     Particles particles;
@@ -59,7 +57,6 @@ class MpmSimulation {
   std::string write_checkpoint(const std::string& out_dir, const Snapshot* from = nullptr);
   void write_frame(ParticleFrameWriter& writer, const std::string& out_dir);
   void take_snapshot();
-  int pending_signal();
   void report_timers(double wall, long substeps) const;
 
   MPI_Comm comm_;

@@ -51,6 +51,19 @@ struct SolverOptions {
   double max_cells_per_substep = 1;  //!< instability guard
 };
 
+//! A `surface_collider` boundary condition (the plane through `point` with `normal` towards the
+//! allowed side), active for the whole run.
+inline BoundaryConfig surface_collider(const std::string& surface, const Vec3d& point,
+                                       const Vec3d& normal, double friction = 0) {
+  BoundaryConfig b;
+  b.type = "surface_collider";
+  b.surface = surface;
+  b.point = point;
+  b.normal = normal;
+  b.friction = friction;
+  return b;
+}
+
 //! A particle that went non-finite or moved too far in one substep: the run is unstable.
 class InstabilityError : public RuntimeError {
  public:
