@@ -24,6 +24,24 @@ inline std::shared_ptr<const mpm::Material> mpm_material(const std::string& mode
   return mpm::make_material(p);
 }
 
+//! A cylinder on the z axis from z0 to z1, or its quarter x >= 0, y >= 0 (with symmetry planes).
+struct AxisCylinder : geometry::Shape {
+  AxisCylinder(double radius, double z_lo, double z_hi, bool quarter_only)
+      : R(radius), z0(z_lo), z1(z_hi), quarter(quarter_only) {}
+  double R, z0, z1;
+  bool quarter;
+  bool inside(const Eigen::Vector3d& p) const override {
+    return (!quarter || (p.x() >= 0 && p.y() >= 0)) && p.x() * p.x() + p.y() * p.y() <= R * R &&
+           p.z() >= z0 && p.z() <= z1;
+  }
+  geometry::Aabb bounds() const override {
+    geometry::Aabb b;
+    b.lo = Eigen::Vector3d(quarter ? 0 : -R, quarter ? 0 : -R, z0);
+    b.hi = Eigen::Vector3d(R, R, z1);
+    return b;
+  }
+};
+
 //! Seeds `shape` on `grid` and distributes; returns the solver. Collective.
 inline std::unique_ptr<mpm::Solver> mpm_solver(MPI_Comm comm, const mpm::GridSpec& grid,
                                                std::shared_ptr<const mpm::Material> material,

@@ -56,21 +56,7 @@ Slump simulate(MPI_Comm comm, double tau_nd, int cells_h, double consistency) {
   std::vector<BoundaryConfig> bcs = {mpm::surface_collider("sticky", {0, 0, 0}, {0, 0, 1}),
                                      mpm::surface_collider("slip", {0, 0, 0}, {1, 0, 0}),
                                      mpm::surface_collider("slip", {0, 0, 0}, {0, 1, 0})};
-  struct QuarterCylinder : geometry::Shape {
-    double R, H;
-    bool inside(const Eigen::Vector3d& p) const override {
-      return p.x() >= 0 && p.y() >= 0 && p.x() * p.x() + p.y() * p.y() <= R * R && p.z() >= 0 &&
-             p.z() <= H;
-    }
-    geometry::Aabb bounds() const override {
-      geometry::Aabb b;
-      b.lo = Eigen::Vector3d(0, 0, 0);
-      b.hi = Eigen::Vector3d(R, R, H);
-      return b;
-    }
-  } cyl;
-  cyl.R = R;
-  cyl.H = H;
+  const driver::AxisCylinder cyl(R, 0, H, true);
   const auto start = std::chrono::steady_clock::now();
   auto solver = driver::mpm_solver(comm, grid, material, opt, bcs, cyl, ppa);
   Slump r;

@@ -167,24 +167,7 @@ Result simulate(MPI_Comm comm, const TaylorTest& t, int radius_cells, int ppa, b
   }
   // The rod's bottom layer of particles starts half a spacing above the anvil plane.
   const double z0 = 0.0;
-  struct Rod : geometry::Shape {
-    double R, z0, z1;
-    bool quarter;
-    bool inside(const Eigen::Vector3d& p) const override {
-      return (!quarter || (p.x() >= 0 && p.y() >= 0)) && p.x() * p.x() + p.y() * p.y() <= R * R &&
-             p.z() >= z0 && p.z() <= z1;
-    }
-    geometry::Aabb bounds() const override {
-      geometry::Aabb b;
-      b.lo = Eigen::Vector3d(quarter ? 0 : -R, quarter ? 0 : -R, z0);
-      b.hi = Eigen::Vector3d(R, R, z1);
-      return b;
-    }
-  } rod;
-  rod.R = R0;
-  rod.quarter = quarter;
-  rod.z0 = z0;
-  rod.z1 = z0 + t.L0;
+  const driver::AxisCylinder rod(R0, z0, z0 + t.L0, quarter);
   const auto start = std::chrono::steady_clock::now();
   auto solver = driver::mpm_solver(comm, g, material, opt, bcs, rod, ppa, {0, 0, -t.U});
   const mpm::Particles& p = solver->particles();
