@@ -26,6 +26,7 @@ pkgs=(
   libpng-dev zlib1g-dev
   clang-format
   python3-matplotlib python3-h5py python3-numpy
+  calculix-ccx
 )
 if [ "$want_torch" = 1 ]; then pkgs+=(libtorch-dev); fi
 
