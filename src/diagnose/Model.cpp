@@ -1,0 +1,749 @@
+#include "diagnose/Model.hpp"
+
+#include <Eigen/Sparse>
+#include <Eigen/SparseCholesky>
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "core/Error.hpp"
+#include "elastogen/HexStencil.hpp"
+#include "geometry/Shape.hpp"
+#include "materials/Registry.hpp"
+#include "mpm/Material.hpp"
+
+namespace gen4d::diagnose {
+
+namespace {
+
+using elastogen::HexStencil;
+using SpMat = Eigen::SparseMatrix<double>;
+
+//! Unit-cube element stiffness of linear elasticity, split by Lame parameter:
+//! K = h (lambda KL + mu KM), dof (node l, axis a) -> 3 l + a.
+struct UnitStiffness {
+  double KL[24][24], KM[24][24];
+  static const UnitStiffness& get() {
+    static const UnitStiffness s;
+    return s;
+  }
+
+ private:
+  UnitStiffness() {
+    const HexStencil& S = HexStencil::get();
+    for (int l = 0; l < 8; ++l)
+      for (int a = 0; a < 3; ++a)
+        for (int m = 0; m < 8; ++m)
+          for (int b = 0; b < 3; ++b) {
+            double kl = 0, km = 0;
+            for (int q = 0; q < 8; ++q) {
+              const auto& gl = S.dN[q][l];
+              const auto& gm = S.dN[q][m];
+              kl += 0.125 * gl[a] * gm[b];
+              km += 0.125 * ((a == b ? gl[0] * gm[0] + gl[1] * gm[1] + gl[2] * gm[2] : 0.0) +
+                             gl[b] * gm[a]);
+            }
+            KL[3 * l + a][3 * m + b] = kl;
+            KM[3 * l + a][3 * m + b] = km;
+          }
+  }
+};
+
+double mises(const double tau[9]) {
+  const double p = (tau[0] + tau[4] + tau[8]) / 3.0;
+  double s2 = 0;
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) {
+      const double d = tau[3 * a + b] - (a == b ? p : 0.0);
+      s2 += d * d;
+    }
+  return std::sqrt(1.5 * s2);
+}
+
+void mat_mul(const double A[9], const double B[9], double C[9]) {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+}
+
+bool invert(const double A[9], double R[9]) {
+  const double c00 = A[4] * A[8] - A[5] * A[7], c01 = A[5] * A[6] - A[3] * A[8],
+               c02 = A[3] * A[7] - A[4] * A[6];
+  const double det = A[0] * c00 + A[1] * c01 + A[2] * c02;
+  if (!(std::abs(det) > 1e-300)) return false;
+  const double id = 1.0 / det;
+  R[0] = c00 * id;
+  R[1] = (A[2] * A[7] - A[1] * A[8]) * id;
+  R[2] = (A[1] * A[5] - A[2] * A[4]) * id;
+  R[3] = c01 * id;
+  R[4] = (A[0] * A[8] - A[2] * A[6]) * id;
+  R[5] = (A[2] * A[3] - A[0] * A[5]) * id;
+  R[6] = c02 * id;
+  R[7] = (A[1] * A[6] - A[0] * A[7]) * id;
+  R[8] = (A[0] * A[4] - A[1] * A[3]) * id;
+  return true;
+}
+
+struct Plane {
+  Vec3d p, n;  // n unit
+  double mu;
+};
+
+}  // namespace
+
+
+VoxelModel::VoxelModel(const Config& cfg) : cfg_(cfg) {
+  const std::string& src = cfg.source;
+  if (!cfg.kinematic.empty())
+    throw InputError(src + ": [[kinematic]] regions are not supported by gen4d diagnose; "
+                           "hold the support with [[fixed]]");
+  if (!cfg.tractions.empty())
+    throw InputError(src + ": [[traction]] loads are not supported by gen4d diagnose; "
+                           "give the load as a [[force]] region");
+  for (const auto& c : cfg.colliders)
+    if (c.type != "plane")
+      throw InputError(src + ": [[collider]] of type '" + c.type +
+                       "' is not supported by gen4d diagnose (planes are)");
+  if (cfg.solver.method == "mpm")
+    throw InputError(src + ": key 'solver.method': gen4d diagnose models voxel elastodynamics; "
+                           "\"mpm\" scenes are not supported yet");
+  if (!(cfg.dt > 0) || !(cfg.end_time > 0))
+    throw InputError(src + ": keys 'simulation.dt' and 'simulation.end_time' must be > 0");
+  materials::find_material(cfg.material.model);  // InputError for an unknown law
+
+  h_ = cfg.voxel_size;
+  auto shape = geometry::make_shape(cfg.geometry);
+  const geometry::Aabb b = shape->bounds();
+  for (int a = 0; a < 3; ++a) {
+    cells_[a] = std::max(1L, static_cast<long>(std::ceil((b.hi[a] - b.lo[a]) / h_ - 1e-9))) +
+                2L * cfg.padding;
+    origin_[a] = b.lo[a] - cfg.padding * h_;
+  }
+  const long ncell = cells_[0] * cells_[1] * cells_[2];
+  if (ncell > 4000000)
+    throw InputError(src + ": key 'domain.voxel_size': " + std::to_string(ncell) +
+                     " cells; gen4d diagnose runs many forward solves and needs a coarser grid");
+  std::vector<std::uint8_t> occ;
+  geometry::voxelize(*shape, Eigen::Vector3d(origin_[0], origin_[1], origin_[2]), h_, {0, 0, 0},
+                     cells_, occ);
+  const long nnx = cells_[0] + 1, nny = cells_[1] + 1, nnz = cells_[2] + 1;
+  std::vector<int> node_id(static_cast<std::size_t>(nnx * nny * nnz), -1);
+  cell_voxel_.assign(static_cast<std::size_t>(ncell), -1);
+  bounds_.lo = {1e300, 1e300, 1e300};
+  bounds_.hi = {-1e300, -1e300, -1e300};
+  for (long k = 0; k < cells_[2]; ++k)
+    for (long j = 0; j < cells_[1]; ++j)
+      for (long i = 0; i < cells_[0]; ++i) {
+        const long c = (k * cells_[1] + j) * cells_[0] + i;
+        if (!occ[static_cast<std::size_t>(c)]) continue;
+        cell_voxel_[static_cast<std::size_t>(c)] = static_cast<long>(vox_node_.size());
+        std::array<int, 8> nodes{};
+        for (int l = 0; l < 8; ++l) {
+          const long ni = i + (l & 1), nj = j + ((l >> 1) & 1), nk = k + ((l >> 2) & 1);
+          int& id = node_id[static_cast<std::size_t>((nk * nny + nj) * nnx + ni)];
+          if (id < 0) {
+            id = static_cast<int>(X_.size());
+            X_.push_back({origin_[0] + h_ * ni, origin_[1] + h_ * nj, origin_[2] + h_ * nk});
+          }
+          nodes[l] = id;
+        }
+        vox_node_.push_back(nodes);
+        vox_ijk_.push_back({i, j, k});
+        for (int a = 0; a < 3; ++a) {
+          const long idx = a == 0 ? i : a == 1 ? j : k;
+          bounds_.lo[a] = std::min(bounds_.lo[a], origin_[a] + h_ * idx);
+          bounds_.hi[a] = std::max(bounds_.hi[a], origin_[a] + h_ * (idx + 1));
+        }
+      }
+  if (vox_node_.empty())
+    throw InputError(src + ": [[geometry]] produces no solid voxel at voxel_size " +
+                     fmt::format("{:g}", h_) + " m");
+  const std::size_t nn = X_.size();
+  mass_.assign(nn, 0.0);
+  fixed_.assign(nn, 0);
+  area_.assign(nn, 0.0);
+  clamp_area_.assign(nn, 0.0);
+  for (const auto& v : vox_node_)
+    for (int l = 0; l < 8; ++l) mass_[static_cast<std::size_t>(v[l])] += h_ * h_ * h_ / 8.0;
+  for (std::size_t n = 0; n < nn; ++n)
+    for (const auto& f : cfg.fixed)
+      if (f.region.contains(X_[n])) fixed_[n] = 1;
+  // Exposed faces: a face whose corners are all fixed is clamp area, else drag area.
+  auto solid = [&](long i, long j, long k) {
+    if (i < 0 || j < 0 || k < 0 || i >= cells_[0] || j >= cells_[1] || k >= cells_[2])
+      return false;
+    return cell_voxel_[static_cast<std::size_t>((k * cells_[1] + j) * cells_[0] + i)] >= 0;
+  };
+  for (std::size_t v = 0; v < vox_node_.size(); ++v) {
+    const auto [i, j, k] = vox_ijk_[v];
+    for (int a = 0; a < 3; ++a)
+      for (int side = 0; side < 2; ++side) {
+        long nb[3] = {i, j, k};
+        nb[a] += side ? 1 : -1;
+        if (solid(nb[0], nb[1], nb[2])) continue;
+        int corners[4], c = 0;
+        for (int l = 0; l < 8; ++l)
+          if (((l >> a) & 1) == side) corners[c++] = vox_node_[v][l];
+        bool all_fixed = true;
+        for (int q = 0; q < 4; ++q) all_fixed = all_fixed && fixed_[corners[q]];
+        for (int q = 0; q < 4; ++q)
+          (all_fixed ? clamp_area_ : area_)[static_cast<std::size_t>(corners[q])] += h_ * h_ / 4;
+      }
+  }
+  long nfixed = 0;
+  for (std::size_t n = 0; n < nn; ++n)
+    if (fixed_[n]) {
+      ++nfixed;
+      if (clamp_area_[n] == 0.0) clamp_area_[n] = h_ * h_;  // an interior anchor
+    }
+  if (nfixed == static_cast<long>(nn))
+    throw InputError(src + ": [[fixed]] regions hold every node; nothing can move");
+}
+
+VoxelModel::~VoxelModel() = default;
+
+Physics VoxelModel::nominal() const {
+  Physics p;
+  p.law = cfg_.material.model;
+  p.youngs_modulus = cfg_.material.youngs_modulus;
+  p.poisson_ratio = cfg_.material.poisson_ratio;
+  p.density = cfg_.material.density;
+  p.gravity = cfg_.gravity;
+  p.dt = cfg_.dt;
+  return p;
+}
+
+Vec3d VoxelModel::voxel_center(std::size_t v) const {
+  const auto& c = vox_ijk_[v];
+  return {origin_[0] + h_ * (c[0] + 0.5), origin_[1] + h_ * (c[1] + 0.5),
+          origin_[2] + h_ * (c[2] + 0.5)};
+}
+
+BoxRegion VoxelModel::voxel_box(const std::vector<std::size_t>& voxels) const {
+  BoxRegion r;
+  r.lo = {1e300, 1e300, 1e300};
+  r.hi = {-1e300, -1e300, -1e300};
+  for (std::size_t v : voxels)
+    for (int a = 0; a < 3; ++a) {
+      r.lo[a] = std::min(r.lo[a], origin_[a] + h_ * vox_ijk_[v][a]);
+      r.hi[a] = std::max(r.hi[a], origin_[a] + h_ * (vox_ijk_[v][a] + 1));
+    }
+  return r;
+}
+
+bool VoxelModel::inside(const Vec3d& X) const {
+  const double tol = 0.25;
+  for (int dk = -1; dk <= 1; ++dk)
+    for (int dj = -1; dj <= 1; ++dj)
+      for (int di = -1; di <= 1; ++di) {
+        const double off[3] = {di * tol, dj * tol, dk * tol};
+        long c[3];
+        bool in = true;
+        for (int a = 0; a < 3; ++a) {
+          c[a] = static_cast<long>(std::floor((X[a] - origin_[a]) / h_ + off[a]));
+          in = in && c[a] >= 0 && c[a] < cells_[a];
+        }
+        if (in && cell_voxel_[static_cast<std::size_t>((c[2] * cells_[1] + c[1]) * cells_[0] +
+                                                       c[0])] >= 0)
+          return true;
+      }
+  return false;
+}
+
+Attachment VoxelModel::attach(const Vec3d& X) const {
+  // The solid voxel nearest to X (X itself may lie on a face shared with empty space).
+  long best = -1;
+  double best_d = 1e300;
+  long c0[3];
+  for (int a = 0; a < 3; ++a) c0[a] = static_cast<long>(std::floor((X[a] - origin_[a]) / h_));
+  for (long dk = -1; dk <= 1; ++dk)
+    for (long dj = -1; dj <= 1; ++dj)
+      for (long di = -1; di <= 1; ++di) {
+        const long c[3] = {c0[0] + di, c0[1] + dj, c0[2] + dk};
+        if (c[0] < 0 || c[1] < 0 || c[2] < 0 || c[0] >= cells_[0] || c[1] >= cells_[1] ||
+            c[2] >= cells_[2])
+          continue;
+        const long v = cell_voxel_[static_cast<std::size_t>((c[2] * cells_[1] + c[1]) * cells_[0] +
+                                                            c[0])];
+        if (v < 0) continue;
+        double d = 0;
+        for (int a = 0; a < 3; ++a) {
+          const double lo = origin_[a] + h_ * c[a], hi = lo + h_;
+          const double e = X[a] < lo ? lo - X[a] : X[a] > hi ? X[a] - hi : 0.0;
+          d += e * e;
+        }
+        if (d < best_d) best_d = d, best = v;
+      }
+  if (best < 0) throw std::logic_error("attach: point is not on the body");
+  Attachment at;
+  double xi[3];
+  for (int a = 0; a < 3; ++a) {
+    const double lo = origin_[a] + h_ * vox_ijk_[static_cast<std::size_t>(best)][a];
+    xi[a] = std::clamp((X[a] - lo) / h_, 0.0, 1.0);
+  }
+  for (int l = 0; l < 8; ++l) {
+    at.node[l] = vox_node_[static_cast<std::size_t>(best)][l];
+    double w = 1;
+    for (int a = 0; a < 3; ++a) w *= ((l >> a) & 1) ? xi[a] : 1.0 - xi[a];
+    at.w[l] = w;
+  }
+  return at;
+}
+
+std::vector<double> VoxelModel::load_events() const {
+  std::vector<double> e;
+  for (const auto& f : cfg_.forces) {
+    if (f.start > 0) e.push_back(f.start);
+    if (f.end < 1e299) e.push_back(f.end);
+  }
+  std::sort(e.begin(), e.end());
+  e.erase(std::unique(e.begin(), e.end()), e.end());
+  return e;
+}
+
+Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req) const {
+  Trace tr;
+  const std::size_t nn = X_.size();
+  const bool clamp_springs = std::isfinite(ph.clamp_stiffness);
+  // Degrees of freedom: every node but the rigidly fixed ones.
+  std::vector<int> dof(nn, -1);
+  int ndof = 0;
+  for (std::size_t n = 0; n < nn; ++n)
+    if (!fixed_[n] || clamp_springs) dof[n] = ndof, ndof += 3;
+  const double h = h_, dt = ph.dt;
+  const double lambda0 = ph.youngs_modulus * ph.poisson_ratio /
+                         ((1 + ph.poisson_ratio) * (1 - 2 * ph.poisson_ratio));
+  const double mu0 = ph.youngs_modulus / (2 * (1 + ph.poisson_ratio));
+  const std::size_t nv = vox_node_.size();
+  std::vector<double> vfac(nv, 1.0);
+  if (ph.has_region)
+    for (std::size_t v = 0; v < nv; ++v)
+      if (ph.region.contains(voxel_center(v))) vfac[v] = ph.region_factor;
+
+  // Linear stiffness at rest, K0, on the free dofs.
+  const UnitStiffness& U = UnitStiffness::get();
+  std::vector<Eigen::Triplet<double>> trip;
+  trip.reserve(nv * 576);
+  for (std::size_t v = 0; v < nv; ++v) {
+    const double sl = h * lambda0 * vfac[v], sm = h * mu0 * vfac[v];
+    for (int l = 0; l < 8; ++l) {
+      const int dl = dof[static_cast<std::size_t>(vox_node_[v][l])];
+      if (dl < 0) continue;
+      for (int m = 0; m < 8; ++m) {
+        const int dm = dof[static_cast<std::size_t>(vox_node_[v][m])];
+        if (dm < 0) continue;
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            trip.emplace_back(dl + a, dm + b,
+                              sl * U.KL[3 * l + a][3 * m + b] + sm * U.KM[3 * l + a][3 * m + b]);
+      }
+    }
+  }
+  SpMat K0(ndof, ndof);
+  K0.setFromTriplets(trip.begin(), trip.end());
+  Eigen::VectorXd M(ndof), Cd(ndof), Ks(ndof);  // lumped mass, diagonal damping, springs
+  for (std::size_t n = 0; n < nn; ++n) {
+    if (dof[n] < 0) continue;
+    const double m = mass_[n] * ph.density;
+    double c = ph.rayleigh_alpha * m + ph.drag_linear * area_[n];
+    double k = 0;
+    if (fixed_[n]) {
+      k = ph.clamp_stiffness * clamp_area_[n];
+      c += ph.clamp_damping * clamp_area_[n];
+    }
+    for (int a = 0; a < 3; ++a) M[dof[n] + a] = m, Cd[dof[n] + a] = c, Ks[dof[n] + a] = k;
+  }
+  // Trapezoidal rule: a1 = 4 (u1 - u - dt v - dt^2/4 a) / dt^2, v1 = v + dt/2 (a + a1).
+  const double ca = 4.0 / (dt * dt), cv = 2.0 / dt;
+  std::vector<Plane> planes;
+  for (const auto& c : cfg_.colliders) {
+    Vec3d n = c.normal;
+    const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    for (double& x : n) x /= len;
+    planes.push_back({c.point, n, c.friction});
+  }
+  if (ph.ground) planes.push_back({{0, 0, ph.ground_height}, {0, 0, 1}, ph.ground_friction});
+  const double k_pen = 50.0 * ph.youngs_modulus * h;
+  // Step matrix A = diag(ca M + cv C + springs) + cv beta K0 + Kt (+ contact penalties); Kt
+  // starts as K0 and is replaced by the tangent at the current state when Newton slows down.
+  SpMat diagA(ndof, ndof);
+  {
+    std::vector<Eigen::Triplet<double>> d;
+    for (int i = 0; i < ndof; ++i) d.emplace_back(i, i, ca * M[i] + cv * Cd[i] + Ks[i]);
+    diagA.setFromTriplets(d.begin(), d.end());
+  }
+  SpMat Kt = K0;
+  Eigen::SimplicialLDLT<SpMat> solver;
+  solver.analyzePattern(K0 + diagA);
+  std::vector<char> active(nn * std::max<std::size_t>(planes.size(), 1), 0);
+  auto factor = [&] {
+    SpMat A = diagA + Kt + (cv * ph.rayleigh_beta) * K0;
+    for (std::size_t n = 0; n < nn; ++n)
+      for (std::size_t p = 0; p < planes.size(); ++p)
+        if (dof[n] >= 0 && active[n * planes.size() + p])
+          for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b)
+              A.coeffRef(dof[n] + a, dof[n] + b) += k_pen * planes[p].n[a] * planes[p].n[b];
+    solver.factorize(A);
+    ++tr.factorizations;
+    return solver.info() == Eigen::Success;
+  };
+  if (!factor()) {
+    tr.ok = false;
+    tr.failure = "the step matrix is singular";
+    return tr;
+  }
+
+  // Constitutive state per Gauss point.
+  const auto law = materials::find_material(ph.law).build(ph.youngs_modulus, ph.poisson_ratio);
+  const bool plastic = std::isfinite(ph.yield_stress);
+  const bool visco = ph.prony_g > 0;
+  std::unique_ptr<mpm::Material> vm;
+  if (plastic) {
+    mpm::MaterialParams mp;
+    mp.model = "von_mises";
+    mp.source = cfg_.source;
+    mp.values = {{"youngs_modulus", ph.youngs_modulus},
+                 {"poisson_ratio", ph.poisson_ratio},
+                 {"density", ph.density},
+                 {"yield_stress", std::max(ph.yield_stress, 0.0)},
+                 {"hardening", std::max(ph.hardening, 0.0)}};
+    vm = mpm::make_material(mp);
+  }
+  const std::size_t ngp = nv * 8;
+  std::vector<double> fp_inv, fp_inv_new, pstate, pstate_new, qv, qv_new, pel_prev, pel_new;
+  if (plastic) {
+    fp_inv.assign(9 * ngp, 0.0);
+    for (std::size_t g = 0; g < ngp; ++g) fp_inv[9 * g] = fp_inv[9 * g + 4] = fp_inv[9 * g + 8] = 1;
+    pstate.assign(mpm::kStateSize * ngp, 0.0);
+    for (std::size_t g = 0; g < ngp; ++g) vm->init_state(&pstate[mpm::kStateSize * g]);
+    fp_inv_new = fp_inv;
+    pstate_new = pstate;
+  }
+  if (visco) qv.assign(9 * ngp, 0.0), qv_new = qv;
+  const double rv = visco ? dt / ph.prony_tau : 0.0;
+
+  std::vector<double> u(3 * nn, 0.0), v(3 * nn, 0.0), a(3 * nn, 0.0);
+  std::vector<double> u1(3 * nn), v1(3 * nn), a1(3 * nn);
+  Eigen::VectorXd R(ndof), du(ndof);
+  const HexStencil& S = HexStencil::get();
+  double step_max_mises = 0;
+
+  // Internal force of the state u1 into f (3 per node); trial constitutive states.
+  std::vector<double> fint(3 * nn);
+  auto internal = [&]() -> bool {
+    std::fill(fint.begin(), fint.end(), 0.0);
+    step_max_mises = 0;
+    for (std::size_t vx = 0; vx < nv; ++vx) {
+      double xe[8][3];
+      for (int l = 0; l < 8; ++l) {
+        const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
+        for (int d = 0; d < 3; ++d) xe[l][d] = X_[n][d] + u1[3 * n + d];
+      }
+      for (int q = 0; q < 8; ++q) {
+        const std::size_t g = 8 * vx + static_cast<std::size_t>(q);
+        double F[9], P[9], tau[9];
+        elastogen::deformation_gradient(S, q, xe, 1.0 / h, F);
+        if (plastic) {
+          double Fe[9], Finv[9];
+          mat_mul(F, &fp_inv[9 * g], Fe);
+          std::copy(&pstate[mpm::kStateSize * g], &pstate[mpm::kStateSize * g] + mpm::kStateSize,
+                    &pstate_new[mpm::kStateSize * g]);
+          vm->update(1, Fe, &pstate_new[mpm::kStateSize * g], tau, dt);
+          if (!invert(F, Finv)) return false;
+          mat_mul(Finv, Fe, &fp_inv_new[9 * g]);
+          // P = tau F^-T
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+              P[3 * i + j] = tau[3 * i] * Finv[3 * j] + tau[3 * i + 1] * Finv[3 * j + 1] +
+                             tau[3 * i + 2] * Finv[3 * j + 2];
+        } else {
+          materials::Mat3 Fm;
+          std::copy(F, F + 9, Fm.a);
+          const materials::Mat3 Pm = law.pk1(Fm);
+          std::copy(Pm.a, Pm.a + 9, P);
+        }
+        if (visco) {
+          // Relaxing part q: dq/dt = (g P_el - q) / tau (backward Euler); stress P_el - q.
+          for (int i = 0; i < 9; ++i) {
+            qv_new[9 * g + i] = (qv[9 * g + i] + rv * ph.prony_g * P[i]) / (1.0 + rv);
+            P[i] -= qv_new[9 * g + i];
+          }
+        }
+        for (int i = 0; i < 9; ++i) P[i] *= vfac[vx];
+        if (!plastic)
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+              tau[3 * i + j] = P[3 * i] * F[3 * j] + P[3 * i + 1] * F[3 * j + 1] +
+                               P[3 * i + 2] * F[3 * j + 2];
+        step_max_mises = std::max(step_max_mises, mises(tau));
+        const double w = h * h / 8.0;
+        for (int l = 0; l < 8; ++l) {
+          const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
+          const double* gN = S.dN[q][l];
+          for (int i = 0; i < 3; ++i)
+            fint[3 * n + i] +=
+                w * (P[3 * i] * gN[0] + P[3 * i + 1] * gN[1] + P[3 * i + 2] * gN[2]);
+        }
+      }
+    }
+    return true;
+  };
+
+  // Tangent stiffness at u1: dP/dF of the elastic law by central differences per Gauss point
+  // (symmetrised), scaled like the stress (region factor, relaxed viscous part).
+  auto tangent = [&] {
+    std::vector<Eigen::Triplet<double>> tk;
+    tk.reserve(nv * 576);
+    const double vscale = visco ? 1.0 - ph.prony_g * rv / (1.0 + rv) : 1.0;
+    for (std::size_t vx = 0; vx < nv; ++vx) {
+      double xe[8][3];
+      for (int l = 0; l < 8; ++l) {
+        const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
+        for (int d = 0; d < 3; ++d) xe[l][d] = X_[n][d] + u1[3 * n + d];
+      }
+      double Ke[24][24] = {};
+      for (int q = 0; q < 8; ++q) {
+        double F[9], D[9][9];
+        elastogen::deformation_gradient(S, q, xe, 1.0 / h, F);
+        const double eps = 1e-6;
+        for (int j = 0; j < 9; ++j) {
+          materials::Mat3 Fp, Fm;
+          std::copy(F, F + 9, Fp.a);
+          std::copy(F, F + 9, Fm.a);
+          Fp.a[j] += eps;
+          Fm.a[j] -= eps;
+          const materials::Mat3 Pp = law.pk1(Fp), Pm = law.pk1(Fm);
+          for (int i = 0; i < 9; ++i) D[i][j] = (Pp.a[i] - Pm.a[i]) / (2 * eps);
+        }
+        const double w = h / 8.0 * vfac[vx] * vscale;  // h^3 / 8 * (1/h)^2
+        // T[l][a][b][e] = sum_c dN_l,c Dsym[ac][be]; Ke[la][mb] += w sum_e T dN_m,e
+        double T[8][3][3][3];
+        for (int l = 0; l < 8; ++l)
+          for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b)
+              for (int e = 0; e < 3; ++e) {
+                double t = 0;
+                for (int c = 0; c < 3; ++c)
+                  t += S.dN[q][l][c] * 0.5 * (D[3 * a + c][3 * b + e] + D[3 * b + e][3 * a + c]);
+                T[l][a][b][e] = w * t;
+              }
+        for (int l = 0; l < 8; ++l)
+          for (int a = 0; a < 3; ++a)
+            for (int m = 0; m < 8; ++m)
+              for (int b = 0; b < 3; ++b)
+                Ke[3 * l + a][3 * m + b] += T[l][a][b][0] * S.dN[q][m][0] +
+                                            T[l][a][b][1] * S.dN[q][m][1] +
+                                            T[l][a][b][2] * S.dN[q][m][2];
+      }
+      for (int l = 0; l < 8; ++l) {
+        const int dl = dof[static_cast<std::size_t>(vox_node_[vx][l])];
+        if (dl < 0) continue;
+        for (int m = 0; m < 8; ++m) {
+          const int dm = dof[static_cast<std::size_t>(vox_node_[vx][m])];
+          if (dm < 0) continue;
+          for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b) tk.emplace_back(dl + a, dm + b, Ke[3 * l + a][3 * m + b]);
+        }
+      }
+    }
+    Kt.setFromTriplets(tk.begin(), tk.end());
+  };
+
+  // Sampling: the nodes any channel reads, stored per step.
+  double t_last = 0;
+  for (const auto& r : req)
+    if (!r.t.empty()) t_last = std::max(t_last, r.t.back());
+  const long nsteps = static_cast<long>(std::ceil(t_last / dt - 1e-9));
+  std::vector<int> sample_slot(nn, -1);
+  std::vector<std::size_t> sampled;
+  for (const auto& r : req)
+    for (int l = 0; l < 8; ++l) {
+      const std::size_t n = static_cast<std::size_t>(r.at.node[l]);
+      if (sample_slot[n] < 0) sample_slot[n] = static_cast<int>(sampled.size()), sampled.push_back(n);
+    }
+  const std::size_t ns = sampled.size();
+  std::vector<double> hist_u(9 * ns * static_cast<std::size_t>(nsteps + 1));  // u, v, a
+  auto record = [&](long s) {
+    double* out = &hist_u[9 * ns * static_cast<std::size_t>(s)];
+    for (std::size_t i = 0; i < ns; ++i)
+      for (int d = 0; d < 3; ++d) {
+        out[9 * i + d] = u[3 * sampled[i] + d];
+        out[9 * i + 3 + d] = v[3 * sampled[i] + d];
+        out[9 * i + 6 + d] = a[3 * sampled[i] + d];
+      }
+  };
+
+  // Applied loads: gravity plus the deck's force regions shared by mass over free nodes.
+  std::vector<double> region_mass(cfg_.forces.size(), 0.0);
+  for (std::size_t n = 0; n < nn; ++n)
+    if (!fixed_[n])
+      for (std::size_t r = 0; r < cfg_.forces.size(); ++r)
+        if (cfg_.forces[r].region.contains(X_[n])) region_mass[r] += mass_[n];
+  auto external = [&](double t, std::size_t n, double f[3]) {
+    const double m = mass_[n] * ph.density;
+    for (int d = 0; d < 3; ++d) f[d] = m * ph.gravity[d];
+    if (fixed_[n]) return;
+    for (std::size_t r = 0; r < cfg_.forces.size(); ++r) {
+      const ForceConfig& fc = cfg_.forces[r];
+      if (t < fc.start || t >= fc.end || region_mass[r] == 0.0 || !fc.region.contains(X_[n]))
+        continue;
+      for (int d = 0; d < 3; ++d) f[d] += fc.force[d] * mass_[n] / region_mass[r];
+    }
+  };
+  const double v_eps = 1e-3;  // m/s, regularisation of dry friction's sign
+  // Initial acceleration from rest: M a0 = f_ext(0) - f_int(X) (= f_ext(0)).
+  for (std::size_t n = 0; n < nn; ++n) {
+    if (dof[n] < 0) continue;
+    double f[3];
+    external(0.0, n, f);
+    for (int d = 0; d < 3; ++d) a[3 * n + d] = f[d] / (mass_[n] * ph.density);
+  }
+  record(0);
+  const double tol_du = 1e-6 * h;
+  for (long s = 1; s <= nsteps; ++s) {
+    const double t1 = dt * static_cast<double>(s);
+    for (std::size_t i = 0; i < 3 * nn; ++i) u1[i] = u[i] + dt * v[i] + 0.25 * dt * dt * a[i];
+    bool converged = false, refresh = false;
+    double dmax_prev = 0;
+    for (int it = 0; it < 60; ++it) {
+      for (std::size_t i = 0; i < 3 * nn; ++i) {
+        a1[i] = ca * (u1[i] - u[i] - dt * v[i]) - a[i];
+        v1[i] = v[i] + 0.5 * dt * (a[i] + a1[i]);
+      }
+      if (!internal()) break;
+      // Contact set at this iterate.
+      bool changed = false;
+      for (std::size_t n = 0; n < nn; ++n) {
+        if (dof[n] < 0) continue;
+        for (std::size_t p = 0; p < planes.size(); ++p) {
+          double gap = 0;
+          for (int d = 0; d < 3; ++d)
+            gap += (X_[n][d] + u1[3 * n + d] - planes[p].p[d]) * planes[p].n[d];
+          const char act = gap < 0;
+          if (act != active[n * planes.size() + p]) active[n * planes.size() + p] = act, changed = true;
+        }
+      }
+      if (refresh) tangent();
+      if ((changed || refresh) && !factor()) break;
+      refresh = false;
+      // Residual of the free dofs; Rayleigh stiffness damping acts through K0 on v1.
+      Eigen::VectorXd vf(ndof);
+      for (std::size_t n = 0; n < nn; ++n)
+        if (dof[n] >= 0)
+          for (int d = 0; d < 3; ++d) vf[dof[n] + d] = v1[3 * n + d];
+      Eigen::VectorXd kv;
+      if (ph.rayleigh_beta != 0) kv = ph.rayleigh_beta * (K0 * vf);
+      for (std::size_t n = 0; n < nn; ++n) {
+        if (dof[n] < 0) continue;
+        double f[3];
+        external(t1, n, f);
+        const int i0 = dof[n];
+        const double m = mass_[n] * ph.density;
+        const double* vn = &v1[3 * n];
+        const double speed = std::sqrt(vn[0] * vn[0] + vn[1] * vn[1] + vn[2] * vn[2]);
+        for (int d = 0; d < 3; ++d) {
+          double r = M[i0 + d] * a1[3 * n + d] + Cd[i0 + d] * vn[d] + fint[3 * n + d] - f[d] +
+                     Ks[i0 + d] * u1[3 * n + d];
+          if (ph.rayleigh_beta != 0) r += kv[i0 + d];
+          if (ph.drag_quadratic != 0) r += ph.drag_quadratic * area_[n] * speed * vn[d];
+          if (ph.coulomb_accel != 0)
+            r += m * ph.coulomb_accel * vn[d] / std::sqrt(speed * speed + v_eps * v_eps);
+          R[i0 + d] = r;
+        }
+        for (std::size_t p = 0; p < planes.size(); ++p) {
+          if (!active[n * planes.size() + p]) continue;
+          const Plane& pl = planes[p];
+          double gap = 0, vn_n = 0;
+          for (int d = 0; d < 3; ++d) {
+            gap += (X_[n][d] + u1[3 * n + d] - pl.p[d]) * pl.n[d];
+            vn_n += vn[d] * pl.n[d];
+          }
+          const double fn = -k_pen * gap;  // >= 0, along n
+          double vt[3], vt2 = 0;
+          for (int d = 0; d < 3; ++d) vt[d] = vn[d] - vn_n * pl.n[d], vt2 += vt[d] * vt[d];
+          const double ft = pl.mu * fn / std::sqrt(vt2 + v_eps * v_eps);
+          for (int d = 0; d < 3; ++d) R[i0 + d] -= fn * pl.n[d] - ft * vt[d];
+        }
+      }
+      du = solver.solve(-R);
+      double dmax = 0;
+      for (std::size_t n = 0; n < nn; ++n)
+        if (dof[n] >= 0)
+          for (int d = 0; d < 3; ++d) {
+            u1[3 * n + d] += du[dof[n] + d];
+            dmax = std::max(dmax, std::abs(du[dof[n] + d]));
+          }
+      ++tr.newton_iterations;
+      if (!std::isfinite(dmax)) break;
+      if (dmax < tol_du) {
+        converged = true;
+        break;
+      }
+      // A stale tangent shows as slow contraction: rebuild it at the current state.
+      if (it > 0 && dmax > 0.3 * dmax_prev) refresh = true;
+      dmax_prev = dmax;
+    }
+    if (!converged) {
+      tr.ok = false;
+      tr.failure = fmt::format("step {} (t = {:.4g} s) did not converge", s, t1);
+      return tr;
+    }
+    for (std::size_t i = 0; i < 3 * nn; ++i) {
+      a1[i] = ca * (u1[i] - u[i] - dt * v[i]) - a[i];
+      v1[i] = v[i] + 0.5 * dt * (a[i] + a1[i]);
+    }
+    u.swap(u1);
+    v.swap(v1);
+    a.swap(a1);
+    if (plastic) fp_inv.swap(fp_inv_new), pstate.swap(pstate_new);
+    if (visco) qv.swap(qv_new);
+    tr.max_mises = std::max(tr.max_mises, step_max_mises);
+    for (std::size_t n = 0; n < nn; ++n) {
+      const double* vn = &v[3 * n];
+      tr.max_speed = std::max(tr.max_speed, std::sqrt(vn[0] * vn[0] + vn[1] * vn[1] + vn[2] * vn[2]));
+    }
+    record(s);
+    ++tr.steps;
+  }
+
+  // Samples: cubic Hermite between steps for positions, linear for accelerations.
+  tr.channel.resize(req.size());
+  for (std::size_t c = 0; c < req.size(); ++c) {
+    const ChannelRequest& r = req[c];
+    auto& out = tr.channel[c];
+    out.resize(3 * r.t.size());
+    for (std::size_t k = 0; k < r.t.size(); ++k) {
+      const double tt = std::max(0.0, r.t[k]);
+      long s0 = std::min(static_cast<long>(std::floor(tt / dt)), std::max(0L, nsteps - 1));
+      if (nsteps == 0) s0 = 0;
+      const long s1 = std::min(s0 + 1, nsteps);
+      const double th = s1 > s0 ? std::clamp((tt - dt * static_cast<double>(s0)) / dt, 0.0, 1.0)
+                                : 0.0;
+      const double h00 = 2 * th * th * th - 3 * th * th + 1, h10 = th * th * th - 2 * th * th + th,
+                   h01 = -2 * th * th * th + 3 * th * th, h11 = th * th * th - th * th;
+      for (int d = 0; d < 3; ++d) {
+        double val = 0;
+        for (int l = 0; l < 8; ++l) {
+          const std::size_t n = static_cast<std::size_t>(r.at.node[l]);
+          const std::size_t slot = static_cast<std::size_t>(sample_slot[n]);
+          const double* A0s = &hist_u[9 * ns * static_cast<std::size_t>(s0) + 9 * slot];
+          const double* A1s = &hist_u[9 * ns * static_cast<std::size_t>(s1) + 9 * slot];
+          double x;
+          if (r.acceleration)
+            x = (1 - th) * A0s[6 + d] + th * A1s[6 + d];
+          else
+            x = X_[n][d] + h00 * A0s[d] + h10 * dt * A0s[3 + d] + h01 * A1s[d] +
+                h11 * dt * A1s[3 + d];
+          val += r.at.w[l] * x;
+        }
+        out[3 * k + d] = val;
+      }
+    }
+  }
+  return tr;
+}
+
+}  // namespace gen4d::diagnose

@@ -1,0 +1,116 @@
+//! The forward model of `gen4d diagnose`: the deck's voxelized body as trilinear hexahedra
+//! (the ElastoGen discretisation: same voxels, 2x2x2 Gauss points, lumped masses, the deck's
+//! material law), integrated by the trapezoidal rule (Newmark beta = 1/4, gamma = 1/2), which
+//! adds no numerical damping, so measured decay is physics. Every effect of the library is a
+//! term of this model that vanishes at its null value. One run is serial; diagnose spreads
+//! runs over ranks.
+#pragma once
+
+#include <array>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/Config.hpp"
+
+namespace gen4d::diagnose {
+
+//! The physics of one forward run: the deck's values plus every effect's parameters.
+struct Physics {
+  std::string law;  //!< hyperelastic law: corotated | neo_hookean | stvk
+  double youngs_modulus = 0, poisson_ratio = 0, density = 0;
+  Vec3d gravity{0, 0, 0};
+  double dt = 0;
+  // damping: C = alpha M + beta K0
+  double rayleigh_alpha = 0, rayleigh_beta = 0;
+  // viscoelasticity: one Prony term; a fraction g of the stress relaxes with time tau
+  double prony_g = 0, prony_tau = 1;
+  // plasticity: von Mises, linear isotropic hardening (Hencky elasticity)
+  double yield_stress = std::numeric_limits<double>::infinity(), hardening = 0;
+  // heterogeneity: voxels whose centre lies in `region` have E * region_factor
+  bool has_region = false;
+  BoxRegion region;
+  double region_factor = 1;
+  // clamp_compliance: fixed nodes held by springs/dashpots per unit clamp area (Pa/m, Pa s/m)
+  double clamp_stiffness = std::numeric_limits<double>::infinity(), clamp_damping = 0;
+  // contact_friction: ground plane z = ground_height (normal +z), Coulomb coefficient
+  bool ground = false;
+  double ground_height = 0, ground_friction = 0;
+  // air_drag: force per exposed area -(linear v + quadratic |v| v)
+  double drag_linear = 0, drag_quadratic = 0;
+  // coulomb_damping: dry friction, force -m a_c v/|v| per node
+  double coulomb_accel = 0;
+};
+
+//! A point attached to the body: the voxel containing it and trilinear weights of its nodes.
+struct Attachment {
+  std::array<int, 8> node{};  //!< compact node ids
+  std::array<double, 8> w{};
+};
+
+//! What to sample: one attachment per channel, its kind and sample times.
+struct ChannelRequest {
+  Attachment at;
+  bool acceleration = false;  //!< false: position x; true: acceleration
+  std::vector<double> t;
+};
+
+//! Result of a run: per channel, 3 values per sample (x, y, z), in request order.
+struct Trace {
+  std::vector<std::vector<double>> channel;
+  bool ok = true;         //!< false when a step failed to converge or went non-finite
+  std::string failure;    //!< why, for the log
+  double max_speed = 0;   //!< over nodes and steps, m/s
+  double max_mises = 0;   //!< largest von Mises (Kirchhoff) stress seen, Pa
+  double energy_in = 0;   //!< work of the applied loads (J), for reports
+  long steps = 0;
+  long newton_iterations = 0;
+  long factorizations = 0;
+};
+
+class VoxelModel {
+ public:
+  //! Voxelizes the deck's geometry; InputError for scenes the model cannot represent.
+  explicit VoxelModel(const Config& cfg);
+  ~VoxelModel();
+
+  const Config& config() const { return cfg_; }
+  //! The deck's physics at its nominal values (no effect).
+  Physics nominal() const;
+  double h() const { return h_; }
+  std::size_t nodes() const { return X_.size(); }
+  std::size_t voxels() const { return vox_node_.size(); }
+  const std::vector<Vec3d>& rest_positions() const { return X_; }
+  //! Voxel centres (reference), for regions and maps.
+  Vec3d voxel_center(std::size_t v) const;
+  //! Bounds of the solid voxels.
+  BoxRegion bounds() const { return bounds_; }
+  //! The smallest voxel-aligned box holding the given voxels.
+  BoxRegion voxel_box(const std::vector<std::size_t>& voxels) const;
+  //! True when X lies in a solid voxel, or within tolerance (a quarter voxel) of one.
+  bool inside(const Vec3d& X) const;
+  //! Attachment of X; InputError-free: call inside() first (throws std::logic_error if not).
+  Attachment attach(const Vec3d& X) const;
+  //! Times where the load program switches (force start/end), sorted, unique.
+  std::vector<double> load_events() const;
+  //! Runs the model from rest to the last requested time.
+  Trace run(const Physics& phys, const std::vector<ChannelRequest>& req) const;
+
+ private:
+  Config cfg_;
+  double h_ = 0;
+  Vec3d origin_{};
+  std::array<long, 3> cells_{};
+  std::vector<long> cell_voxel_;  //!< cell linear index -> voxel id or -1
+  std::vector<std::array<int, 8>> vox_node_;
+  std::vector<std::array<long, 3>> vox_ijk_;
+  std::vector<Vec3d> X_;
+  std::vector<double> mass_;       //!< per node, kg per unit density
+  std::vector<char> fixed_;        //!< per node
+  std::vector<double> area_;       //!< exposed tributary area per node (not the clamp face)
+  std::vector<double> clamp_area_; //!< tributary area of the clamp faces per fixed node
+  BoxRegion bounds_;
+};
+
+}  // namespace gen4d::diagnose
