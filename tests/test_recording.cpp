@@ -228,6 +228,7 @@ TEST_F(RecordingTest, WriteCsvRoundTripBothKinds) {
   const std::string path = dir + "/out.csv";
   write_recording_csv(rec, path);
   EXPECT_EQ(acceleration_csv_path(path), dir + "/out-acc.csv");
+  EXPECT_EQ(acceleration_csv_path("rec"), "rec-acc");
   ASSERT_TRUE(fs::exists(dir + "/out-acc.csv"));
   EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 2)
       << "temporary files left behind";
@@ -501,6 +502,17 @@ TEST_F(RecordingTest, Hdf5BadRowsNameDatasetAndRow) {
   expect_input_error(
       [&] { read_recording(path); },
       {"rows.h5", "dataset /t row 2", "time goes backwards at row 2", "marker 'a'", "(row 1)"});
+}
+
+TEST_F(RecordingTest, Hdf5NonNumericDataset) {
+  const std::string path = dir + "/text.h5";
+  {
+    H5Writer h(path);
+    h.ints("marker", {1, 1});
+    h.vlen_strings("X", {"0", "0"});
+    for (const char* n : {"Y", "Z", "t", "x", "y", "z"}) h.numbers(n, {0, 1});
+  }
+  expect_input_error([&] { read_recording(path); }, {"text.h5", "dataset /X", "not numeric"});
 }
 
 TEST_F(RecordingTest, CheckAttachedRejectsMarkerOutsideBox) {
