@@ -340,6 +340,16 @@ TEST(Plot, Demo) {
   }
   share_color_scale(maps);
   write_scatter_maps(dir + "/error_map.png", maps, 1, 900, 420);
+
+  // Every glyph, at text scales 2 (labels) and 3 (title).
+  std::string ascii;
+  for (int c = 32; c < 127; ++c) ascii += char(c);
+  LineChart font;
+  font.title = ascii.substr(0, 48);
+  font.ylabel = ascii.substr(48);
+  font.xlabel = "The quick brown fox jumps over the lazy dog; gjpqy_,";
+  font.series.push_back({ascii.substr(0, 48), {0, 1}, {0, 1}, palette_color(0)});
+  write_line_chart(dir + "/font.png", font, 1600, 900);
 }
 
 }  // namespace

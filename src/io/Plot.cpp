@@ -334,8 +334,13 @@ class Coverage {
 void stroke(Coverage& cov, const std::vector<std::array<double, 2>>& points, double width,
             bool dashed, const Area& clip) {
   const double half = 0.5 * width;
-  if (points.size() == 1) {
-    cov.disc(points[0][0], points[0][1], half, clip);
+  double total = 0;
+  for (std::size_t i = 1; i < points.size(); ++i) {
+    total += std::hypot(points[i][0] - points[i - 1][0], points[i][1] - points[i - 1][1]);
+  }
+  if (points.empty()) return;
+  if (total < 1) {  // a lone point between gaps: a dot that can be seen
+    cov.disc(points[0][0], points[0][1], std::max(1.5, width), clip);
     return;
   }
   const double on = 4 * width + 2, off = 2.5 * width + 2;
@@ -603,8 +608,12 @@ std::vector<std::vector<std::array<double, 2>>> runs(const Series& s, const Fram
   return out;
 }
 
-double marker_radius(const Series& s) {
-  return std::max(2.0, s.width + 1.0);
+//! Line width and marker radius in pixels; both grow with the text on large charts.
+double line_width(const Series& s, int scale) {
+  return std::max(0.5, std::isfinite(s.width) ? s.width : 1.5) * scale;
+}
+double marker_radius(const Series& s, int scale) {
+  return std::max(2.0 * scale, line_width(s, scale) + scale);
 }
 
 void render_line_chart(Canvas& c, const LineChart& chart) {
@@ -623,7 +632,7 @@ void render_line_chart(Canvas& c, const LineChart& chart) {
   const bool no_data = xr.empty();
   Frame f;
   f.log_y = chart.log_y;
-  const Range x = padded(xr, 0.0);
+  const Range x = padded(xr, 0.02);
   const Range y = padded(yr, 0.05);
   f.x0 = x.lo;
   f.x1 = x.hi;
@@ -649,9 +658,9 @@ void render_line_chart(Canvas& c, const LineChart& chart) {
   for (const Series& series : chart.series) {
     for (const auto& run : runs(series, f)) {
       if (series.points) {
-        for (const auto& p : run) cov.disc(p[0], p[1], marker_radius(series), f.area);
+        for (const auto& p : run) cov.disc(p[0], p[1], marker_radius(series, s), f.area);
       } else {
-        stroke(cov, run, std::max(0.5, series.width), series.dashed, f.area);
+        stroke(cov, run, line_width(series, s), series.dashed, f.area);
       }
       for (std::size_t i = 0; i < run.size(); ++i) {
         drawn.push_back(run[i]);
@@ -711,9 +720,9 @@ void render_line_chart(Canvas& c, const LineChart& chart) {
     const double cy = ty + 3.5 * s;
     const double x0 = bx + 6 * s, x1 = x0 + sample;
     if (series.points) {
-      cov.disc(0.5 * (x0 + x1), cy, marker_radius(series), legend);
+      cov.disc(0.5 * (x0 + x1), cy, marker_radius(series, s), legend);
     } else {
-      stroke(cov, {{x0, cy}, {x1, cy}}, std::max(0.5, series.width), series.dashed, legend);
+      stroke(cov, {{x0, cy}, {x1, cy}}, line_width(series, s), series.dashed, legend);
     }
     cov.flush(c, series.color);
     c.text(int(x1) + 5 * s, ty, series.label, s, kInk);

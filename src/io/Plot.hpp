@@ -23,7 +23,8 @@ struct Series {
   std::vector<double> x, y;
   Rgb color;
   bool points = false;  // filled markers instead of a line
-  double width = 1.5;   // line width, pixels (markers: radius about width + 1)
+  double width = 1.5;   // line width in pixels, times the text scale on charts of 1600x900 and up;
+                        // markers: radius width + 1
   bool dashed = false;
 };
 
