@@ -149,9 +149,13 @@ TEST(Plot, EdgeCasesDoNotCrash) {
   flat.series[0].y = {0, -1, kNaN};
   write_line_chart(dir + "/nothing.png", flat, 300, 200);
   write_line_chart(dir + "/blank.png", LineChart{}, 300, 200);
+  LineChart extreme;
+  extreme.series.push_back({"", {0, 1, 2}, {-1e308, 1e308, 1e-310}, kRed});
+  write_line_chart(dir + "/extreme.png", extreme, 300, 200);
   EXPECT_EQ(load_png(dir + "/blank.png").width, 300);
 
   ScatterMap map;
+  map.colorbar_label = "no y label";
   map.x = {0, 1, kNaN};
   map.y = {0, 1, 2};
   map.value = {kNaN, kNaN, 1};
@@ -260,6 +264,9 @@ TEST(Plot, TicksAndLabels) {
   EXPECT_EQ(t.back(), 1);
   EXPECT_EQ(nice_ticks(-0.013, 0.047, 8).size(), 6u);  // -0.01 .. 0.04 by 0.01
   EXPECT_TRUE(nice_ticks(1, 1).empty());
+  EXPECT_TRUE(nice_ticks(0, 1e-320).empty());
+  EXPECT_TRUE(nice_ticks(-1e308, 1e308).empty());
+  EXPECT_TRUE(nice_ticks(0, std::numeric_limits<double>::infinity()).empty());
   EXPECT_EQ(format_tick(0.5, 0.5), "0.5");
   EXPECT_EQ(format_tick(1.0, 0.5), "1.0");
   EXPECT_EQ(format_tick(0.0, 0.5), "0");

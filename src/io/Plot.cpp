@@ -245,6 +245,9 @@ class Coverage {
 
   //! A straight stroke of half-width `half` with round ends.
   void segment(double ax, double ay, double bx, double by, double half, const Area& clip) {
+    if (!std::isfinite(ax) || !std::isfinite(ay) || !std::isfinite(bx) || !std::isfinite(by)) {
+      return;
+    }
     if (!clip_segment(ax, ay, bx, by, clip, half + 1)) return;
     // Short pieces keep the scanned boxes tight around diagonal strokes.
     const double length = std::hypot(bx - ax, by - ay);
@@ -392,6 +395,7 @@ Range padded(Range r, double margin) {
     const double pad = size > 0 ? 0.1 * size : 1.0;
     return {r.lo - pad, r.hi + pad};
   }
+  if (!std::isfinite(r.hi - r.lo)) return r;  // spans more than a double holds: as is
   const double m = margin * (r.hi - r.lo);
   return {r.lo - m, r.hi + m};
 }
@@ -513,17 +517,17 @@ struct Bands {
 };
 
 Bands draw_top(Canvas& c, const std::string& title, const std::string& ylabel,
-               const std::string& xlabel) {
+               const std::string& xlabel, bool label_row) {
   Bands b;
   b.scale = text_scale(c.width, c.height);
   const int s = b.scale, ts = s + 1;
   b.pad = 6 * s;
   int y = b.pad;
   if (!title.empty()) {
-    c.text((c.width - text_width(title, ts)) / 2, y, title, ts, kInk);
+    c.text(std::max(0, (c.width - text_width(title, ts)) / 2), y, title, ts, kInk);
     y += 9 * ts + 3 * s;
   }
-  if (!ylabel.empty()) {
+  if (label_row) {  // the y label, or the colour bar's
     c.text(b.pad, y, ylabel, s, kInk);
     y += 9 * s + 2 * s;
   }
@@ -617,7 +621,7 @@ double marker_radius(const Series& s, int scale) {
 }
 
 void render_line_chart(Canvas& c, const LineChart& chart) {
-  const Bands b = draw_top(c, chart.title, chart.ylabel, chart.xlabel);
+  const Bands b = draw_top(c, chart.title, chart.ylabel, chart.xlabel, !chart.ylabel.empty());
   const int s = b.scale;
 
   Range xr, yr;
@@ -756,7 +760,8 @@ Range value_range(const ScatterMap& m) {
 }
 
 void render_scatter_map(Canvas& c, const ScatterMap& map) {
-  const Bands b = draw_top(c, map.title, map.ylabel, map.xlabel);
+  const Bands b = draw_top(c, map.title, map.ylabel, map.xlabel,
+                           !map.ylabel.empty() || !map.colorbar_label.empty());
   const int s = b.scale;
   const Range vr = value_range(map);
 
@@ -941,7 +946,10 @@ Rgb colormap(double t) {
 }
 
 std::vector<double> nice_ticks(double lo, double hi, int max_count) {
-  if (!std::isfinite(lo) || !std::isfinite(hi) || !(lo < hi)) return {};
+  if (!std::isfinite(lo) || !std::isfinite(hi) || !(lo < hi) || !std::isfinite(hi - lo) ||
+      hi - lo < 1e-290) {
+    return {};
+  }
   max_count = std::max(max_count, 1);
   int k = int(std::floor(std::log10((hi - lo) / max_count))) - 1;
   for (;; ++k) {
@@ -950,7 +958,7 @@ std::vector<double> nice_ticks(double lo, double hi, int max_count) {
       const double scale = std::pow(10.0, std::abs(k));
       const double step = k >= 0 ? m * scale : m / scale;
       const double first = std::ceil(lo / step - 1e-9), last = std::floor(hi / step + 1e-9);
-      if (last - first + 1 > max_count) continue;
+      if (!std::isfinite(last - first) || last - first + 1 > max_count) continue;
       std::vector<double> ticks;
       for (double i = first; i <= last; ++i)
         ticks.push_back(k >= 0 ? i * m * scale : i * m / scale);
