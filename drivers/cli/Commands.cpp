@@ -23,6 +23,8 @@
 #include "core/Error.hpp"
 #include "core/Log.hpp"
 #include "core/Signals.hpp"
+#include "diagnose/Diagnose.hpp"
+#include "diagnose/Effects.hpp"
 #include "elastogen/Simulation.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/FrameReader.hpp"
@@ -322,6 +324,36 @@ int dispatch(int argc, char** argv) {
                     "unless --frames is given)");
   preview->add_option("--fps", pv_fps, "Frame rate of the --mp4 video")->check(CLI::Range(1, 240));
 
+  std::string dg_deck, dg_effects;
+  std::vector<std::string> dg_sets;
+  diagnose::DiagnoseOptions dg;
+  auto* diag = app.add_subcommand(
+      "diagnose",
+      "Find where and when a recording departs from a deck, name the missing physics, fit it");
+  diag->add_option("deck", dg_deck, "The nominal deck (TOML)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  diag->add_option("--recording,-r", dg.recordings,
+                   "Recording: CSV marker,X,Y,Z,t,x,y,z or sensor,X,Y,Z,t,ax,ay,az, or HDF5; "
+                   "repeat for more files")
+      ->required()
+      ->check(CLI::ExistingFile);
+  diag->add_option("--out,-o", dg.out_dir, "Output directory for report.json, report.md, PNGs")
+      ->required();
+  diag->add_option(
+      "--effects", dg_effects, "Comma-separated candidate effects (default: all of " + [] {
+        std::string s;
+        for (const auto& n : diagnose::effect_names()) s += (s.empty() ? "" : ",") + n;
+        return s;
+      }() + ")");
+  diag->add_option("--holdout", dg.holdout,
+                   "Fraction of time blocks and of markers held out for model selection")
+      ->check(CLI::Range(0.0, 0.5));
+  diag->add_option("--refit", dg.refit, "Candidates refitted after screening")
+      ->check(CLI::Range(1, 10));
+  diag->add_option("--set,-s", dg_sets, "Override a deck key, e.g. --set simulation.dt=0.001")
+      ->take_all();
+
   const NeuralCommands neural(app);
 
   try {
@@ -333,6 +365,13 @@ int dispatch(int argc, char** argv) {
   if (*run) return cmd_run(ra);
   if (*restart) return cmd_restart(ckpt, rs_out, rs_sets);
   if (*info) return cmd_info();
+  if (*diag) {
+    const Config cfg = load_deck(dg_deck, dg_sets);
+    std::stringstream ss(dg_effects);
+    for (std::string e; std::getline(ss, e, ',');)
+      if (!e.empty()) dg.effects.push_back(e);
+    return diagnose::run_diagnose(MPI_COMM_WORLD, cfg, dg);
+  }
   if (*preview) {
     const bool all = pv_mp4 && pv_frames_opt->count() == 0;
     const auto frames = parse_frame_list(all ? "all" : pv_frames);

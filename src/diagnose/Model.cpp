@@ -93,22 +93,24 @@ struct Plane {
 
 }  // namespace
 
-
 VoxelModel::VoxelModel(const Config& cfg) : cfg_(cfg) {
   const std::string& src = cfg.source;
   if (!cfg.kinematic.empty())
-    throw InputError(src + ": [[kinematic]] regions are not supported by gen4d diagnose; "
-                           "hold the support with [[fixed]]");
+    throw InputError(src +
+                     ": [[kinematic]] regions are not supported by gen4d diagnose; "
+                     "hold the support with [[fixed]]");
   if (!cfg.tractions.empty())
-    throw InputError(src + ": [[traction]] loads are not supported by gen4d diagnose; "
-                           "give the load as a [[force]] region");
+    throw InputError(src +
+                     ": [[traction]] loads are not supported by gen4d diagnose; "
+                     "give the load as a [[force]] region");
   for (const auto& c : cfg.colliders)
     if (c.type != "plane")
       throw InputError(src + ": [[collider]] of type '" + c.type +
                        "' is not supported by gen4d diagnose (planes are)");
   if (cfg.solver.method == "mpm")
-    throw InputError(src + ": key 'solver.method': gen4d diagnose models voxel elastodynamics; "
-                           "\"mpm\" scenes are not supported yet");
+    throw InputError(src +
+                     ": key 'solver.method': gen4d diagnose models voxel elastodynamics; "
+                     "\"mpm\" scenes are not supported yet");
   if (!(cfg.dt > 0) || !(cfg.end_time > 0))
     throw InputError(src + ": keys 'simulation.dt' and 'simulation.end_time' must be > 0");
   materials::find_material(cfg.material.model);  // InputError for an unknown law
@@ -172,8 +174,7 @@ VoxelModel::VoxelModel(const Config& cfg) : cfg_(cfg) {
       if (f.region.contains(X_[n])) fixed_[n] = 1;
   // Exposed faces: a face whose corners are all fixed is clamp area, else drag area.
   auto solid = [&](long i, long j, long k) {
-    if (i < 0 || j < 0 || k < 0 || i >= cells_[0] || j >= cells_[1] || k >= cells_[2])
-      return false;
+    if (i < 0 || j < 0 || k < 0 || i >= cells_[0] || j >= cells_[1] || k >= cells_[2]) return false;
     return cell_voxel_[static_cast<std::size_t>((k * cells_[1] + j) * cells_[0] + i)] >= 0;
   };
   for (std::size_t v = 0; v < vox_node_.size(); ++v) {
@@ -215,6 +216,12 @@ Physics VoxelModel::nominal() const {
   return p;
 }
 
+double VoxelModel::exposed_area() const {
+  double a = 0;
+  for (double x : area_) a += x;
+  return a;
+}
+
 Vec3d VoxelModel::voxel_center(std::size_t v) const {
   const auto& c = vox_ijk_[v];
   return {origin_[0] + h_ * (c[0] + 0.5), origin_[1] + h_ * (c[1] + 0.5),
@@ -245,8 +252,9 @@ bool VoxelModel::inside(const Vec3d& X) const {
           c[a] = static_cast<long>(std::floor((X[a] - origin_[a]) / h_ + off[a]));
           in = in && c[a] >= 0 && c[a] < cells_[a];
         }
-        if (in && cell_voxel_[static_cast<std::size_t>((c[2] * cells_[1] + c[1]) * cells_[0] +
-                                                       c[0])] >= 0)
+        if (in &&
+            cell_voxel_[static_cast<std::size_t>((c[2] * cells_[1] + c[1]) * cells_[0] + c[0])] >=
+                0)
           return true;
       }
   return false;
@@ -265,8 +273,8 @@ Attachment VoxelModel::attach(const Vec3d& X) const {
         if (c[0] < 0 || c[1] < 0 || c[2] < 0 || c[0] >= cells_[0] || c[1] >= cells_[1] ||
             c[2] >= cells_[2])
           continue;
-        const long v = cell_voxel_[static_cast<std::size_t>((c[2] * cells_[1] + c[1]) * cells_[0] +
-                                                            c[0])];
+        const long v =
+            cell_voxel_[static_cast<std::size_t>((c[2] * cells_[1] + c[1]) * cells_[0] + c[0])];
         if (v < 0) continue;
         double d = 0;
         for (int a = 0; a < 3; ++a) {
@@ -313,8 +321,8 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
   for (std::size_t n = 0; n < nn; ++n)
     if (!fixed_[n] || clamp_springs) dof[n] = ndof, ndof += 3;
   const double h = h_, dt = ph.dt;
-  const double lambda0 = ph.youngs_modulus * ph.poisson_ratio /
-                         ((1 + ph.poisson_ratio) * (1 - 2 * ph.poisson_ratio));
+  const double lambda0 =
+      ph.youngs_modulus * ph.poisson_ratio / ((1 + ph.poisson_ratio) * (1 - 2 * ph.poisson_ratio));
   const double mu0 = ph.youngs_modulus / (2 * (1 + ph.poisson_ratio));
   const std::size_t nv = vox_node_.size();
   std::vector<double> vfac(nv, 1.0);
@@ -365,7 +373,7 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
     planes.push_back({c.point, n, c.friction});
   }
   if (ph.ground) planes.push_back({{0, 0, ph.ground_height}, {0, 0, 1}, ph.ground_friction});
-  const double k_pen = 50.0 * ph.youngs_modulus * h;
+  const double k_pen = 2.0 * ph.youngs_modulus * h;  // N/m per node: sub-micron sag, mild tangent
   // Step matrix A = diag(ca M + cv C + springs) + cv beta K0 + Kt (+ contact penalties); Kt
   // starts as K0 and is replaced by the tangent at the current state when Newton slows down.
   SpMat diagA(ndof, ndof);
@@ -476,16 +484,15 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
         if (!plastic)
           for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j)
-              tau[3 * i + j] = P[3 * i] * F[3 * j] + P[3 * i + 1] * F[3 * j + 1] +
-                               P[3 * i + 2] * F[3 * j + 2];
+              tau[3 * i + j] =
+                  P[3 * i] * F[3 * j] + P[3 * i + 1] * F[3 * j + 1] + P[3 * i + 2] * F[3 * j + 2];
         step_max_mises = std::max(step_max_mises, mises(tau));
         const double w = h * h / 8.0;
         for (int l = 0; l < 8; ++l) {
           const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
           const double* gN = S.dN[q][l];
           for (int i = 0; i < 3; ++i)
-            fint[3 * n + i] +=
-                w * (P[3 * i] * gN[0] + P[3 * i + 1] * gN[1] + P[3 * i + 2] * gN[2]);
+            fint[3 * n + i] += w * (P[3 * i] * gN[0] + P[3 * i + 1] * gN[1] + P[3 * i + 2] * gN[2]);
         }
       }
     }
@@ -562,7 +569,8 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
   for (const auto& r : req)
     for (int l = 0; l < 8; ++l) {
       const std::size_t n = static_cast<std::size_t>(r.at.node[l]);
-      if (sample_slot[n] < 0) sample_slot[n] = static_cast<int>(sampled.size()), sampled.push_back(n);
+      if (sample_slot[n] < 0)
+        sample_slot[n] = static_cast<int>(sampled.size()), sampled.push_back(n);
     }
   const std::size_t ns = sampled.size();
   std::vector<double> hist_u(9 * ns * static_cast<std::size_t>(nsteps + 1));  // u, v, a
@@ -590,10 +598,9 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
       const ForceConfig& fc = cfg_.forces[r];
       if (t < fc.start || t >= fc.end || region_mass[r] == 0.0 || !fc.region.contains(X_[n]))
         continue;
-      for (int d = 0; d < 3; ++d) f[d] += fc.force[d] * mass_[n] / region_mass[r];
+      for (int d = 0; d < 3; ++d) f[d] += ph.load_scale * fc.force[d] * mass_[n] / region_mass[r];
     }
   };
-  const double v_eps = 1e-3;  // m/s, regularisation of dry friction's sign
   // Initial acceleration from rest: M a0 = f_ext(0) - f_int(X) (= f_ext(0)).
   for (std::size_t n = 0; n < nn; ++n) {
     if (dof[n] < 0) continue;
@@ -602,7 +609,7 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
     for (int d = 0; d < 3; ++d) a[3 * n + d] = f[d] / (mass_[n] * ph.density);
   }
   record(0);
-  const double tol_du = 1e-6 * h;
+  const double tol_du = 1e-5 * h;
   for (long s = 1; s <= nsteps; ++s) {
     const double t1 = dt * static_cast<double>(s);
     for (std::size_t i = 0; i < 3 * nn; ++i) u1[i] = u[i] + dt * v[i] + 0.25 * dt * dt * a[i];
@@ -616,14 +623,15 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
       if (!internal()) break;
       // Contact set at this iterate.
       bool changed = false;
-      for (std::size_t n = 0; n < nn; ++n) {
+      for (std::size_t n = 0; n < nn && it < 8; ++n) {  // then the contact set stays fixed
         if (dof[n] < 0) continue;
         for (std::size_t p = 0; p < planes.size(); ++p) {
           double gap = 0;
           for (int d = 0; d < 3; ++d)
             gap += (X_[n][d] + u1[3 * n + d] - planes[p].p[d]) * planes[p].n[d];
           const char act = gap < 0;
-          if (act != active[n * planes.size() + p]) active[n * planes.size() + p] = act, changed = true;
+          if (act != active[n * planes.size() + p])
+            active[n * planes.size() + p] = act, changed = true;
         }
       }
       if (refresh) tangent();
@@ -644,13 +652,17 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
         const double m = mass_[n] * ph.density;
         const double* vn = &v1[3 * n];
         const double speed = std::sqrt(vn[0] * vn[0] + vn[1] * vn[1] + vn[2] * vn[2]);
+        // Dry friction acts against the velocity at the start of the step (explicit in its
+        // direction, capped so it can at most stop the node): stable at any dt.
+        const double* v0 = &v[3 * n];
+        const double speed0 = std::sqrt(v0[0] * v0[0] + v0[1] * v0[1] + v0[2] * v0[2]);
         for (int d = 0; d < 3; ++d) {
           double r = M[i0 + d] * a1[3 * n + d] + Cd[i0 + d] * vn[d] + fint[3 * n + d] - f[d] +
                      Ks[i0 + d] * u1[3 * n + d];
           if (ph.rayleigh_beta != 0) r += kv[i0 + d];
           if (ph.drag_quadratic != 0) r += ph.drag_quadratic * area_[n] * speed * vn[d];
-          if (ph.coulomb_accel != 0)
-            r += m * ph.coulomb_accel * vn[d] / std::sqrt(speed * speed + v_eps * v_eps);
+          if (ph.coulomb_accel != 0 && speed0 > 0)  // lagged direction, cannot reverse motion
+            r += std::min(m * ph.coulomb_accel, m * speed0 / dt) * v0[d] / speed0;
           R[i0 + d] = r;
         }
         for (std::size_t p = 0; p < planes.size(); ++p) {
@@ -662,9 +674,12 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
             vn_n += vn[d] * pl.n[d];
           }
           const double fn = -k_pen * gap;  // >= 0, along n
-          double vt[3], vt2 = 0;
-          for (int d = 0; d < 3; ++d) vt[d] = vn[d] - vn_n * pl.n[d], vt2 += vt[d] * vt[d];
-          const double ft = pl.mu * fn / std::sqrt(vt2 + v_eps * v_eps);
+          double vt[3], vt2 = 0, v0n = 0;
+          for (int d = 0; d < 3; ++d) v0n += v0[d] * pl.n[d];
+          for (int d = 0; d < 3; ++d) vt[d] = v0[d] - v0n * pl.n[d], vt2 += vt[d] * vt[d];
+          const double vt_norm = std::sqrt(vt2);
+          const double ft = vt_norm > 0 ? std::min(pl.mu * fn, m * vt_norm / dt) / vt_norm : 0.0;
+          (void)vn_n;
           for (int d = 0; d < 3; ++d) R[i0 + d] -= fn * pl.n[d] - ft * vt[d];
         }
       }
@@ -683,7 +698,7 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
         break;
       }
       // A stale tangent shows as slow contraction: rebuild it at the current state.
-      if (it > 0 && dmax > 0.3 * dmax_prev) refresh = true;
+      if (it > 1 && dmax > 0.5 * dmax_prev) refresh = true;
       dmax_prev = dmax;
     }
     if (!converged) {
@@ -703,7 +718,8 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
     tr.max_mises = std::max(tr.max_mises, step_max_mises);
     for (std::size_t n = 0; n < nn; ++n) {
       const double* vn = &v[3 * n];
-      tr.max_speed = std::max(tr.max_speed, std::sqrt(vn[0] * vn[0] + vn[1] * vn[1] + vn[2] * vn[2]));
+      tr.max_speed =
+          std::max(tr.max_speed, std::sqrt(vn[0] * vn[0] + vn[1] * vn[1] + vn[2] * vn[2]));
     }
     record(s);
     ++tr.steps;
@@ -720,8 +736,8 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
       long s0 = std::min(static_cast<long>(std::floor(tt / dt)), std::max(0L, nsteps - 1));
       if (nsteps == 0) s0 = 0;
       const long s1 = std::min(s0 + 1, nsteps);
-      const double th = s1 > s0 ? std::clamp((tt - dt * static_cast<double>(s0)) / dt, 0.0, 1.0)
-                                : 0.0;
+      const double th =
+          s1 > s0 ? std::clamp((tt - dt * static_cast<double>(s0)) / dt, 0.0, 1.0) : 0.0;
       const double h00 = 2 * th * th * th - 3 * th * th + 1, h10 = th * th * th - 2 * th * th + th,
                    h01 = -2 * th * th * th + 3 * th * th, h11 = th * th * th - th * th;
       for (int d = 0; d < 3; ++d) {

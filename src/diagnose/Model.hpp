@@ -41,6 +41,8 @@ struct Physics {
   double drag_linear = 0, drag_quadratic = 0;
   // coulomb_damping: dry friction, force -m a_c v/|v| per node
   double coulomb_accel = 0;
+  //! Multiplies the deck's [[force]] loads (to design a separating experiment).
+  double load_scale = 1;
 };
 
 //! A point attached to the body: the voxel containing it and trilinear weights of its nodes.
@@ -59,11 +61,11 @@ struct ChannelRequest {
 //! Result of a run: per channel, 3 values per sample (x, y, z), in request order.
 struct Trace {
   std::vector<std::vector<double>> channel;
-  bool ok = true;         //!< false when a step failed to converge or went non-finite
-  std::string failure;    //!< why, for the log
-  double max_speed = 0;   //!< over nodes and steps, m/s
-  double max_mises = 0;   //!< largest von Mises (Kirchhoff) stress seen, Pa
-  double energy_in = 0;   //!< work of the applied loads (J), for reports
+  bool ok = true;        //!< false when a step failed to converge or went non-finite
+  std::string failure;   //!< why, for the log
+  double max_speed = 0;  //!< over nodes and steps, m/s
+  double max_mises = 0;  //!< largest von Mises (Kirchhoff) stress seen, Pa
+  double energy_in = 0;  //!< work of the applied loads (J), for reports
   long steps = 0;
   long newton_iterations = 0;
   long factorizations = 0;
@@ -84,6 +86,11 @@ class VoxelModel {
   const std::vector<Vec3d>& rest_positions() const { return X_; }
   //! Voxel centres (reference), for regions and maps.
   Vec3d voxel_center(std::size_t v) const;
+  //! Volume of the solid voxels (m^3) and their exposed surface area (m^2, clamp faces excluded).
+  double volume() const { return h_ * h_ * h_ * static_cast<double>(vox_node_.size()); }
+  double exposed_area() const;
+  //! Voxel index triple (cells from the grid origin).
+  const std::array<long, 3>& voxel_ijk(std::size_t v) const { return vox_ijk_[v]; }
   //! Bounds of the solid voxels.
   BoxRegion bounds() const { return bounds_; }
   //! The smallest voxel-aligned box holding the given voxels.
@@ -106,10 +113,10 @@ class VoxelModel {
   std::vector<std::array<int, 8>> vox_node_;
   std::vector<std::array<long, 3>> vox_ijk_;
   std::vector<Vec3d> X_;
-  std::vector<double> mass_;       //!< per node, kg per unit density
-  std::vector<char> fixed_;        //!< per node
-  std::vector<double> area_;       //!< exposed tributary area per node (not the clamp face)
-  std::vector<double> clamp_area_; //!< tributary area of the clamp faces per fixed node
+  std::vector<double> mass_;        //!< per node, kg per unit density
+  std::vector<char> fixed_;         //!< per node
+  std::vector<double> area_;        //!< exposed tributary area per node (not the clamp face)
+  std::vector<double> clamp_area_;  //!< tributary area of the clamp faces per fixed node
   BoxRegion bounds_;
 };
 

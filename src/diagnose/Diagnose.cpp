@@ -1,0 +1,1072 @@
+#include "diagnose/Diagnose.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <numeric>
+
+#include "core/Error.hpp"
+#include "core/Log.hpp"
+#include "diagnose/Effects.hpp"
+#include "diagnose/Fit.hpp"
+#include "diagnose/Recording.hpp"
+#include "diagnose/Report.hpp"
+
+namespace gen4d::diagnose {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+//! Upper 0.1 % point of chi-square with k degrees of freedom (k <= 10), else Wilson-Hilferty.
+double chi2_crit999(int k) {
+  static const double q[] = {0,     10.83, 13.82, 16.27, 18.47, 20.52,
+                             22.46, 24.32, 26.12, 27.88, 29.59};
+  if (k >= 1 && k <= 10) return q[k];
+  const double z = 3.0902, a = 2.0 / (9.0 * k);
+  return k * std::pow(1 - a + z * std::sqrt(a), 3);
+}
+
+//! P(chi2_k > x) by the Wilson-Hilferty normal approximation.
+double chi2_tail(double x, double k) {
+  if (k <= 0) return 1;
+  const double a = 2.0 / (9.0 * k);
+  const double z = (std::cbrt(x / k) - (1 - a)) / std::sqrt(a);
+  return 0.5 * std::erfc(z / std::sqrt(2.0));
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  const std::size_t m = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(m), v.end());
+  return v[m];
+}
+
+}  // namespace
+
+double estimate_noise(const std::vector<const Channel*>& chans) {
+  std::vector<double> est;
+  for (const Channel* c : chans)
+    for (int d = 0; d < 3; ++d)
+      for (std::size_t b = 0; b + 7 <= c->t.size(); b += 7) {
+        Eigen::Matrix<double, 7, 4> A;
+        Eigen::Matrix<double, 7, 1> y;
+        const double tm = c->t[b + 3];
+        const double s = std::max(c->t[b + 6] - c->t[b], 1e-300);
+        for (int i = 0; i < 7; ++i) {
+          const double x = (c->t[b + static_cast<std::size_t>(i)] - tm) / s;
+          A(i, 0) = 1, A(i, 1) = x, A(i, 2) = x * x, A(i, 3) = x * x * x;
+          y[i] = c->value[b + static_cast<std::size_t>(i)][static_cast<std::size_t>(d)];
+        }
+        const Eigen::Vector4d coef = A.colPivHouseholderQr().solve(y);
+        est.push_back((y - A * coef).squaredNorm() / 3.0);
+      }
+  if (est.empty()) return std::nan("");
+  return std::sqrt(median(est) / 0.789);
+}
+
+namespace {
+
+//! Observations of the recording: channel requests, holdout split, noise weights.
+Observations build_observations(const VoxelModel& model, const Recording& rec, double holdout,
+                                double& noise_pos, double& noise_acc) {
+  Observations obs;
+  std::vector<const Channel*> pos, acc;
+  for (const Channel& c : rec.channels) (c.kind == ChannelKind::Position ? pos : acc).push_back(&c);
+  noise_pos = estimate_noise(pos);
+  noise_acc = estimate_noise(acc);
+  if (!pos.empty() && !(noise_pos > 0))
+    throw InputError(rec.source + ": cannot estimate the noise: a marker needs at least 7 samples");
+  if (!acc.empty() && !(noise_acc > 0))
+    throw InputError(rec.source + ": cannot estimate the noise: a sensor needs at least 7 samples");
+  // Held out: contiguous time blocks (of 8) and markers, spread evenly.
+  const double tb = rec.t_begin(), te = rec.t_end();
+  const int nblocks = 8;
+  std::vector<char> block_out(nblocks, 0);
+  const int hb = holdout > 0 ? std::max(1, static_cast<int>(std::lround(holdout * nblocks))) : 0;
+  for (int i = 0; i < hb; ++i)
+    block_out[static_cast<std::size_t>((2 * i + 1) * nblocks / (2 * hb))] = 1;
+  const std::size_t nch = rec.channels.size();
+  std::vector<char> chan_out(nch, 0);
+  const int hm =
+      nch >= 4 && holdout > 0
+          ? std::max(1, static_cast<int>(std::lround(holdout * static_cast<double>(nch))))
+          : 0;
+  for (int i = 0; i < hm; ++i)
+    chan_out[static_cast<std::size_t>((2 * i + 1) * static_cast<int>(nch) / (2 * hm))] = 1;
+  for (std::size_t c = 0; c < nch; ++c) {
+    const Channel& ch = rec.channels[c];
+    ChannelRequest r;
+    r.at = model.attach(ch.X);
+    r.acceleration = ch.kind == ChannelKind::Acceleration;
+    r.t = ch.t;
+    obs.requests.push_back(r);
+    obs.ids.push_back(ch.id);
+    const double sigma = r.acceleration ? noise_acc : noise_pos;
+    for (std::size_t k = 0; k < ch.t.size(); ++k) {
+      int blk = te > tb ? static_cast<int>((ch.t[k] - tb) / (te - tb) * nblocks) : 0;
+      blk = std::clamp(blk, 0, nblocks - 1);
+      const bool out = block_out[static_cast<std::size_t>(blk)] || chan_out[c];
+      for (int d = 0; d < 3; ++d) {
+        obs.y.push_back(ch.value[k][static_cast<std::size_t>(d)]);
+        obs.t.push_back(ch.t[k]);
+        obs.channel.push_back(static_cast<int>(c));
+        obs.component.push_back(d);
+        obs.sigma.push_back(sigma);
+        obs.train.push_back(out ? 0 : 1);
+        obs.heldout.push_back(out ? 1 : 0);
+      }
+    }
+  }
+  return obs;
+}
+
+std::vector<char> all_mask(const Observations& obs) {
+  return std::vector<char>(obs.size(), 1);
+}
+
+//! Internal coordinate of a parameter value and back.
+double to_z(const ParamSpec& s, double v) {
+  return s.log ? std::log(std::max(v, 1e-300)) : v;
+}
+double from_z(const ParamSpec& s, double z) {
+  return s.log ? std::exp(z) : z;
+}
+
+//! Weighted residuals per (channel, component) series in time order, for whiteness.
+void whiteness(const Observations& obs, const Prediction& p, double& p_value, double& lag1) {
+  const int lags = 10;
+  double Q = 0, dof = 0, r1 = 0;
+  long series = 0;
+  std::map<std::pair<int, int>, std::vector<double>> ser;
+  for (std::size_t i = 0; i < obs.size(); ++i)
+    ser[{obs.channel[i], obs.component[i]}].push_back((p.y[i] - obs.y[i]) / obs.sigma[i]);
+  for (auto& [key, r] : ser) {
+    const std::size_t n = r.size();
+    if (n < 3 * lags) continue;
+    const double m = std::accumulate(r.begin(), r.end(), 0.0) / static_cast<double>(n);
+    double c0 = 0;
+    for (double x : r) c0 += (x - m) * (x - m);
+    if (c0 <= 0) continue;
+    for (int k = 1; k <= lags; ++k) {
+      double ck = 0;
+      for (std::size_t i = static_cast<std::size_t>(k); i < n; ++i)
+        ck += (r[i] - m) * (r[i - k] - m);
+      const double rho = ck / c0;
+      if (k == 1) r1 += rho;
+      Q += static_cast<double>(n) * (static_cast<double>(n) + 2) * rho * rho /
+           static_cast<double>(n - static_cast<std::size_t>(k));
+    }
+    dof += lags;
+    ++series;
+  }
+  p_value = series ? chi2_tail(Q, dof) : 1.0;
+  lag1 = series ? r1 / static_cast<double>(series) : 0.0;
+}
+
+//! Dominant angular frequency of the observed motion after the last load event, from the
+//! mean-crossings of the channel component with the largest variance.
+double dominant_omega(const Observations& obs, double t_from) {
+  std::map<std::pair<int, int>, std::vector<std::pair<double, double>>> ser;
+  for (std::size_t i = 0; i < obs.size(); ++i)
+    if (obs.t[i] >= t_from) ser[{obs.channel[i], obs.component[i]}].push_back({obs.t[i], obs.y[i]});
+  double best_var = -1, omega = 2 * kPi;
+  for (auto& [key, s] : ser) {
+    if (s.size() < 8) continue;
+    double m = 0;
+    for (auto& [t, y] : s) m += y;
+    m /= static_cast<double>(s.size());
+    double var = 0;
+    for (auto& [t, y] : s) var += (y - m) * (y - m);
+    if (var <= best_var) continue;
+    // Crossings of a 3-point smoothed signal so noise does not add crossings.
+    std::vector<double> sm(s.size());
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      const std::size_t a = i ? i - 1 : i, b = std::min(i + 1, s.size() - 1);
+      sm[i] = (s[a].second + s[i].second + s[b].second) / 3 - m;
+    }
+    double first = -1, last = -1;
+    int n = 0;
+    for (std::size_t i = 1; i < sm.size(); ++i)
+      if ((sm[i - 1] < 0) != (sm[i] < 0)) {
+        const double tc = s[i].first;
+        if (first < 0) first = tc;
+        if (last >= 0 && tc - last < 0.2 * (tc - first) / std::max(n, 1)) continue;
+        last = tc;
+        ++n;
+      }
+    if (n >= 3) {
+      best_var = var;
+      omega = kPi * (n - 1) / (last - first);
+    }
+  }
+  return omega;
+}
+
+}  // namespace
+
+int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
+  const auto wall0 = std::chrono::steady_clock::now();
+  int rank = 0, size = 1;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  if (opt.recordings.empty()) throw InputError("gen4d diagnose: --recording is required");
+  if (!(opt.holdout >= 0 && opt.holdout <= 0.5))
+    throw InputError(fmt::format("gen4d diagnose: --holdout {} must be in [0, 0.5]", opt.holdout));
+  std::vector<const Effect*> library;
+  if (opt.effects.empty())
+    for (const auto& e : effect_library()) library.push_back(e.get());
+  else
+    for (const auto& n : opt.effects) library.push_back(&find_effect(n));
+
+  Diagnosis D;
+  D.deck = cfg.source;
+  D.ranks = size;
+  const VoxelModel model(cfg);
+  D.body = model.bounds();
+  Recording rec = read_recording(opt.recordings[0]);
+  for (std::size_t i = 1; i < opt.recordings.size(); ++i)
+    merge_recordings(rec, read_recording(opt.recordings[i]));
+  D.recording = rec.source;
+  check_attached(rec, [&](const std::array<double, 3>& X) { return model.inside(X); });
+  for (const Channel& c : rec.channels)
+    if (c.t.front() < 0)
+      throw InputError(
+          fmt::format("{}:{}: {} '{}' has a sample at t = {} s before the deck's "
+                      "start (t = 0)",
+                      c.file, c.line.front(), id_column(c.kind), c.id, c.t.front()));
+  const Observations obs =
+      build_observations(model, rec, opt.holdout, D.noise_position, D.noise_acceleration);
+  Evaluator ev(comm, model, obs);
+  const std::vector<char> all = all_mask(obs);
+  long ntrain = 0;
+  for (char c : obs.train) ntrain += c;
+  log::info("gen4d diagnose: {} channels, {} values ({} fitted, {} held out); noise {:.3g} m{}",
+            rec.channels.size(), obs.size(), ntrain, obs.size() - static_cast<std::size_t>(ntrain),
+            D.noise_position,
+            std::isnan(D.noise_acceleration)
+                ? std::string()
+                : fmt::format(", {:.3g} m/s^2 (accelerometers)", D.noise_acceleration));
+
+  // 1. The solver's own numerical dissipation: rerun the nominal deck at dt/2.
+  Physics nominal = model.nominal();
+  D.youngs_nominal = nominal.youngs_modulus;
+  D.poisson_nominal = nominal.poisson_ratio;
+  D.density = nominal.density;
+  {
+    Physics half = nominal;
+    half.dt /= 2;
+    const auto p = ev.run({nominal, half});
+    if (!p[0].ok) throw RuntimeError(cfg.source + ": the nominal deck fails: " + p[0].failure);
+    // Dissipation: the motion's amplitude over the last quarter of the record (about each
+    // channel's mean there) at dt and dt/2. The trapezoidal rule conserves energy, so only a
+    // change of amplitude counts; a phase change (dispersion) is reported, and absorbed by E.
+    double a0 = 0, a1 = 0, disp = 0;
+    std::map<int, std::array<double, 3>> mean;
+    const double t_late = rec.t_begin() + 0.75 * (rec.t_end() - rec.t_begin());
+    long nl = 0;
+    for (int pass = 0; pass < 2; ++pass)
+      for (std::size_t i = 0; i < obs.size(); ++i) {
+        if (obs.t[i] < t_late || !p[1].ok) continue;
+        const int key = 3 * obs.channel[i] + obs.component[i];
+        auto& m = mean[key];
+        if (pass == 0) {
+          m[0] += p[0].y[i], m[1] += p[1].y[i], m[2] += 1;
+          continue;
+        }
+        a0 += std::pow((p[0].y[i] - m[0] / m[2]) / obs.sigma[i], 2);
+        a1 += std::pow((p[1].y[i] - m[1] / m[2]) / obs.sigma[i], 2);
+        disp += std::pow((p[0].y[i] - p[1].y[i]) / obs.sigma[i], 2);
+        ++nl;
+      }
+    const double nn = static_cast<double>(std::max(1L, nl));
+    D.numerical_change = p[1].ok ? std::abs(std::sqrt(a0 / nn) - std::sqrt(a1 / nn)) : 1e300;
+    D.numerical_dispersion = std::sqrt(disp / nn);
+    if (D.numerical_change > 0.3) {
+      nominal.dt /= 2;
+      D.dt_halved = true;
+    }
+    D.dt = nominal.dt;
+    D.rms_nominal = rms(obs, p[0], obs.train);
+    D.heldout_rms_nominal = rms(obs, p[0], obs.heldout);
+    log::info(
+        "numerical check (dt/2 rerun): amplitude change {:.3g} noise sd (dissipation), "
+        "late-time difference {:.3g} noise sd (dispersion){}",
+        D.numerical_change, D.numerical_dispersion, D.dt_halved ? "; using dt/2" : "");
+  }
+
+  // 2. Calibrate the baseline: log E and nu (density stays the deck's: E/rho is identified).
+  const std::vector<ParamSpec> base_specs = {
+      {"youngs_modulus", "Pa", nominal.youngs_modulus / 3, nominal.youngs_modulus * 3, true},
+      {"poisson_ratio", "", 0.0, 0.49, false}};
+  auto base_physics = [&](const std::vector<double>& z) {
+    Physics p = nominal;
+    p.youngs_modulus = std::exp(z[0]);
+    p.poisson_ratio = z[1];
+    return p;
+  };
+  LsqProblem pb;
+  pb.lo = {to_z(base_specs[0], base_specs[0].lo), base_specs[1].lo};
+  pb.hi = {to_z(base_specs[0], base_specs[0].hi), base_specs[1].hi};
+  pb.step = {1e-3, 2e-3};
+  pb.physics = base_physics;
+  pb.mask = &obs.train;
+  const LsqResult base = least_squares(
+      ev, pb, {std::log(nominal.youngs_modulus), nominal.poisson_ratio}, opt.max_iterations);
+  D.youngs_modulus = std::exp(base.z[0]);
+  D.poisson_ratio = base.z[1];
+  D.baseline_pred = base.pred;
+  D.rms_before = rms(obs, base.pred, obs.train);
+  D.heldout_rms_before = rms(obs, base.pred, obs.heldout);
+  const double N = static_cast<double>(ntrain);
+  const double chi2_0 = base.chi2;
+  D.chi2_red = chi2_0 / std::max(1.0, N - 2);
+  whiteness(obs, base.pred, D.whiteness_p, D.lag1);
+  D.misfit = D.chi2_red > 1 + 4 * std::sqrt(2 / std::max(1.0, N - 2)) || D.whiteness_p < 1e-3;
+  log::info(
+      "calibrated: E {:.4g} Pa (nominal {:.4g}), nu {:.3f}; rms {:.3g} m, chi2/dof {:.3g}, "
+      "whiteness p {:.2g} ({} runs)",
+      D.youngs_modulus, nominal.youngs_modulus, D.poisson_ratio, D.rms_before, D.chi2_red,
+      D.whiteness_p, ev.runs());
+  Physics calibrated = base_physics(base.z);
+
+  // 3a. When: residual energy per time bin, segmented at change points.
+  const double tb = rec.t_begin(), te = rec.t_end();
+  const int nbins = 40;
+  auto bin_energy = [&](const Prediction& p) {
+    std::vector<double> e(nbins, 0.0), n(nbins, 0.0);
+    for (std::size_t i = 0; i < obs.size(); ++i) {
+      const int b = std::clamp(static_cast<int>((obs.t[i] - tb) / (te - tb) * nbins), 0, nbins - 1);
+      e[static_cast<std::size_t>(b)] += std::pow((p.y[i] - obs.y[i]) / obs.sigma[i], 2);
+      n[static_cast<std::size_t>(b)] += 1;
+    }
+    for (int b = 0; b < nbins; ++b)
+      e[static_cast<std::size_t>(b)] /= std::max(1.0, n[static_cast<std::size_t>(b)]);
+    return e;
+  };
+  D.bin_e_before = bin_energy(base.pred);
+  for (int b = 0; b < nbins; ++b) D.bin_t.push_back(tb + (b + 0.5) * (te - tb) / nbins);
+  {
+    // Binary segmentation of log energy with a BIC-like penalty.
+    std::vector<double> le;
+    for (double e : D.bin_e_before) le.push_back(std::log(std::max(e, 1e-3)));
+    std::vector<double> diffs;
+    for (std::size_t i = 1; i < le.size(); ++i) diffs.push_back(std::abs(le[i] - le[i - 1]));
+    const double s2 = std::pow(median(diffs) / 0.954, 2) / 2 + 1e-6;
+    std::vector<std::pair<int, int>> segs = {{0, nbins}}, done;
+    while (!segs.empty()) {
+      auto [a, b] = segs.back();
+      segs.pop_back();
+      auto sse = [&](int x, int y) {
+        double m = 0;
+        for (int i = x; i < y; ++i) m += le[static_cast<std::size_t>(i)];
+        m /= (y - x);
+        double s = 0;
+        for (int i = x; i < y; ++i) s += std::pow(le[static_cast<std::size_t>(i)] - m, 2);
+        return s;
+      };
+      const double whole = sse(a, b);
+      double best = 0;
+      int split = -1;
+      for (int c = a + 2; c <= b - 2; ++c) {
+        const double gain = whole - sse(a, c) - sse(c, b);
+        if (gain > best) best = gain, split = c;
+      }
+      if (split > 0 && best > 3 * s2 * std::log(static_cast<double>(nbins))) {
+        segs.push_back({a, split});
+        segs.push_back({split, b});
+      } else {
+        done.push_back({a, b});
+      }
+    }
+    std::sort(done.begin(), done.end());
+    for (auto [a, b] : done) {
+      double m = 0;
+      for (int i = a; i < b; ++i) m += D.bin_e_before[static_cast<std::size_t>(i)];
+      m /= (b - a);
+      if (m < 2.0) continue;  // residual variance within twice the noise
+      const double t0 = tb + a * (te - tb) / nbins, t1 = tb + b * (te - tb) / nbins;
+      if (!D.time_windows.empty() && std::abs(D.time_windows.back().second - t0) < 1e-12)
+        D.time_windows.back().second = t1;
+      else
+        D.time_windows.push_back({t0, t1});
+    }
+    const auto events = model.load_events();
+    for (auto [t0, t1] : D.time_windows) {
+      std::string ph;
+      double last = 0;
+      for (double e : events) {
+        if (e > t0 && e < t1) ph += fmt::format("contains the load change at {:g} s; ", e);
+        if (e <= t0) last = e;
+      }
+      if (ph.empty())
+        ph = events.empty() ? "constant load"
+                            : (last > 0 ? fmt::format("after the load change at {:g} s", last)
+                                        : "under the initial load");
+      D.window_phase.push_back(ph);
+    }
+  }
+  // 3b. Where: per-channel error, most affected markers.
+  auto channel_rms = [&](const Prediction& p) {
+    std::vector<double> s(obs.requests.size(), 0.0), n(obs.requests.size(), 0.0);
+    for (std::size_t i = 0; i < obs.size(); ++i) {
+      s[static_cast<std::size_t>(obs.channel[i])] += std::pow(p.y[i] - obs.y[i], 2);
+      n[static_cast<std::size_t>(obs.channel[i])] += 1;
+    }
+    for (std::size_t c = 0; c < s.size(); ++c) s[c] = std::sqrt(s[c] / std::max(1.0, n[c]));
+    return s;
+  };
+  D.channel_rms_before = channel_rms(base.pred);
+  for (const Channel& c : rec.channels) D.channel_ids.push_back(c.id), D.channel_X.push_back(c.X);
+  {
+    std::vector<std::size_t> order(rec.channels.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+      return D.channel_rms_before[a] > D.channel_rms_before[b];
+    });
+    for (std::size_t i = 0; i < std::min<std::size_t>(3, order.size()); ++i)
+      D.markers.push_back(rec.channels[order[i]].id);
+  }
+
+  // Scene scales for the effects.
+  EffectContext ctx;
+  ctx.model = &model;
+  ctx.base = calibrated;
+  const auto events = model.load_events();
+  ctx.omega = dominant_omega(obs, events.empty() ? 0.0 : events.back());
+  ctx.max_mises = base.pred.max_mises;
+  ctx.max_speed = base.pred.max_speed;
+  ctx.total_mass = model.volume() * calibrated.density;
+  ctx.surface_area = model.exposed_area();
+  {
+    double amp = 0, low = 1e300;
+    std::map<std::pair<int, int>, std::pair<double, double>> range;
+    for (std::size_t i = 0; i < obs.size(); ++i) {
+      const int c = obs.channel[i];
+      if (obs.requests[static_cast<std::size_t>(c)].acceleration) continue;
+      auto it = range.find({c, obs.component[i]});
+      if (it == range.end()) it = range.insert({{c, obs.component[i]}, {obs.y[i], obs.y[i]}}).first;
+      it->second.first = std::min(it->second.first, obs.y[i]);
+      it->second.second = std::max(it->second.second, obs.y[i]);
+      if (obs.component[i] == 2)
+        low = std::min(low,
+                       obs.y[i] - (rec.channels[static_cast<std::size_t>(c)].X[2] - D.body.lo[2]));
+    }
+    for (auto& [k, r] : range) amp = std::max(amp, 0.5 * (r.second - r.first));
+    ctx.amplitude = amp;
+    ctx.lowest_point = low < 1e299 ? low : D.body.lo[2];
+  }
+
+  // 3c. Where, in the material: sensitivity of the residual to the stiffness of super-voxels.
+  const Eigen::VectorXd r0 = base.r;
+  const Eigen::MatrixXd& Jb = base.J;
+  Eigen::MatrixXd Qb;  // orthonormal basis of the baseline directions
+  {
+    Eigen::HouseholderQR<Eigen::MatrixXd> qr(Jb);
+    Qb = qr.householderQ() * Eigen::MatrixXd::Identity(Jb.rows(), Jb.cols());
+  }
+  auto project = [&](const Eigen::VectorXd& d) -> Eigen::VectorXd {
+    return d - Qb * (Qb.transpose() * d);
+  };
+  const bool want_region = std::any_of(
+      library.begin(), library.end(), [](const Effect* e) { return e->name() == "heterogeneity"; });
+  if (want_region) {
+    int b = 1;
+    std::array<long, 3> lo{1L << 40, 1L << 40, 1L << 40}, hi{0, 0, 0};
+    for (std::size_t v = 0; v < model.voxels(); ++v)
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = std::min(lo[a], model.voxel_ijk(v)[a]);
+        hi[a] = std::max(hi[a], model.voxel_ijk(v)[a]);
+      }
+    std::map<std::array<long, 3>, std::vector<std::size_t>> blocks;
+    for (;; ++b) {
+      blocks.clear();
+      for (std::size_t v = 0; v < model.voxels(); ++v) {
+        std::array<long, 3> key;
+        for (int a = 0; a < 3; ++a) key[a] = (model.voxel_ijk(v)[a] - lo[a]) / b;
+        blocks[key].push_back(v);
+      }
+      if (blocks.size() <= 24) break;
+    }
+    std::vector<std::array<long, 3>> keys;
+    std::vector<Physics> batch;
+    for (auto& [key, vox] : blocks) {
+      keys.push_back(key);
+      Physics p = calibrated;
+      p.has_region = true;
+      p.region = model.voxel_box(vox);
+      p.region_factor = 0.8;
+      batch.push_back(p);
+    }
+    const auto preds = ev.run(batch);
+    std::vector<Eigen::VectorXd> dp(keys.size());
+    std::vector<double> gain(keys.size(), 0.0);
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+      dp[i] = project(weighted_residual(obs, preds[i], obs.train) - r0);
+      const double nn = dp[i].squaredNorm();
+      gain[i] = nn > 0 ? std::pow(dp[i].dot(r0), 2) / nn : 0.0;
+      Vec3d c{0, 0, 0};
+      const BoxRegion bx = model.voxel_box(blocks[keys[i]]);
+      for (int a = 0; a < 3; ++a) c[a] = 0.5 * (bx.lo[a] + bx.hi[a]);
+      D.block_center.push_back(c);
+      D.block_gain.push_back(gain[i] / std::max(chi2_0, 1e-300));
+    }
+    // Grow a face-connected cluster from the best block while the joint gain rises.
+    std::vector<char> in(keys.size(), 0);
+    const std::size_t seed =
+        static_cast<std::size_t>(std::max_element(gain.begin(), gain.end()) - gain.begin());
+    in[seed] = 1;
+    Eigen::VectorXd col = dp[seed];
+    double g = gain[seed];
+    for (;;) {
+      double best = g;
+      std::size_t add = keys.size();
+      for (std::size_t i = 0; i < keys.size(); ++i) {
+        if (in[i]) continue;
+        bool adj = false;
+        for (std::size_t j = 0; j < keys.size() && !adj; ++j) {
+          if (!in[j]) continue;
+          long dist = 0;
+          for (int a = 0; a < 3; ++a) dist += std::abs(keys[i][a] - keys[j][a]);
+          adj = dist == 1;
+        }
+        if (!adj) continue;
+        const Eigen::VectorXd c2 = col + dp[i];
+        const double gi = std::pow(c2.dot(r0), 2) / std::max(c2.squaredNorm(), 1e-300);
+        if (gi > best * 1.03) best = gi, add = i;
+      }
+      if (add == keys.size()) break;
+      in[add] = 1;
+      col += dp[add];
+      g = best;
+    }
+    std::vector<std::size_t> vox;
+    for (std::size_t i = 0; i < keys.size(); ++i)
+      if (in[i]) vox.insert(vox.end(), blocks[keys[i]].begin(), blocks[keys[i]].end());
+    D.located_region = model.voxel_box(vox);
+    D.located = true;
+    ctx.has_region = true;
+    ctx.region = D.located_region;
+    log::info(
+        "stiffness sensitivity over {} super-voxels ({}^3 voxels): region [{:.3g} {:.3g} "
+        "{:.3g}]-[{:.3g} {:.3g} {:.3g}] explains {:.1f} % of chi2 (linearised)",
+        keys.size(), b, ctx.region.lo[0], ctx.region.lo[1], ctx.region.lo[2], ctx.region.hi[0],
+        ctx.region.hi[1], ctx.region.hi[2], 100 * g / chi2_0);
+  }
+
+  // 4. Screening: every probe's residual direction, fitted jointly with the baseline's.
+  struct Probe {
+    const Effect* effect;
+    std::string variant;
+    std::size_t group;
+    std::vector<double> p;
+  };
+  std::vector<Probe> probes;
+  for (const Effect* e : library) {
+    if (!e->applicable(ctx)) continue;
+    for (const auto& var : e->variants(ctx)) {
+      const auto groups = e->probe_groups(ctx, var);
+      for (std::size_t gi = 0; gi < groups.size(); ++gi)
+        for (const auto& p : groups[gi]) probes.push_back({e, var, gi, p});
+    }
+  }
+  std::vector<Physics> batch;
+  for (const Probe& p : probes) {
+    Physics ph = calibrated;
+    p.effect->apply(p.variant, p.p, ctx, ph);
+    batch.push_back(ph);
+  }
+  const auto probe_preds = ev.run(batch);
+  std::vector<Candidate> screened;
+  for (std::size_t i = 0; i < probes.size();) {
+    std::size_t j = i;
+    while (j < probes.size() && probes[j].effect == probes[i].effect &&
+           probes[j].variant == probes[i].variant && probes[j].group == probes[i].group)
+      ++j;
+    // Group [i, j): least squares of r0 on the projected probe directions.
+    const Eigen::Index g = static_cast<Eigen::Index>(j - i);
+    Eigen::MatrixXd Dm(r0.size(), g);
+    bool ok = true;
+    for (std::size_t k = i; k < j; ++k) {
+      ok = ok && probe_preds[k].ok;
+      Dm.col(static_cast<Eigen::Index>(k - i)) =
+          project(weighted_residual(obs, probe_preds[k], obs.train) - r0);
+    }
+    double gain = 0;
+    std::vector<double> start = probes[i].p;
+    if (ok) {
+      const Eigen::VectorXd c = Dm.colPivHouseholderQr().solve(-r0);
+      gain = r0.squaredNorm() - (r0 + Dm * c).squaredNorm();
+      const Effect* e = probes[i].effect;
+      if (e->scalable()) {
+        const auto nul = e->null_values(ctx, probes[i].variant);
+        start = nul;
+        for (std::size_t k = i; k < j; ++k)
+          for (std::size_t q = 0; q < nul.size(); ++q)
+            start[q] +=
+                std::max(0.0, c[static_cast<Eigen::Index>(k - i)]) * (probes[k].p[q] - nul[q]);
+        // A group whose signs all fall out keeps the probe magnitudes.
+        if (start == nul) start = probes[i].p;
+        if (e->name() == "gravity")  // signed: any direction
+          for (std::size_t q = 0; q < nul.size(); ++q) {
+            start[q] = nul[q];
+            for (std::size_t k = i; k < j; ++k)
+              start[q] += c[static_cast<Eigen::Index>(k - i)] * (probes[k].p[q] - nul[q]);
+          }
+      }
+    }
+    // Keep the best group per (effect, variant).
+    auto it = std::find_if(screened.begin(), screened.end(), [&](const Candidate& c) {
+      return c.effect == probes[i].effect->name() && c.variant == probes[i].variant;
+    });
+    if (it == screened.end()) {
+      Candidate c;
+      c.effect = probes[i].effect->name();
+      c.variant = probes[i].variant;
+      c.screen_gain = -1;
+      screened.push_back(c);
+      it = screened.end() - 1;
+    }
+    if (gain > it->screen_gain) {
+      it->screen_gain = gain;
+      it->z.clear();
+      const auto specs = probes[i].effect->params(ctx, probes[i].variant);
+      for (std::size_t q = 0; q < specs.size(); ++q)
+        it->z.push_back(to_z(specs[q], std::clamp(start[q], specs[q].lo, specs[q].hi)));
+    }
+    i = j;
+  }
+  std::sort(screened.begin(), screened.end(),
+            [](const Candidate& a, const Candidate& b) { return a.screen_gain > b.screen_gain; });
+  for (const auto& c : screened)
+    log::info("  screen {:<16} {:<12} linearised chi2 drop {:.4g} ({:.1f} %)", c.effect, c.variant,
+              c.screen_gain, 100 * c.screen_gain / chi2_0);
+
+  // 5. Refit the best few jointly with the baseline; score on held-out data.
+  const double lnN = std::log(std::max(N, 2.0));
+  // The best few effects (by their best variant) are refitted, each variant of them that
+  // screened within 10 % of the effect's best; BIC then picks the variant.
+  std::vector<std::string> chosen;
+  for (const Candidate& c : screened)
+    if (c.screen_gain > 0 && static_cast<int>(chosen.size()) < opt.refit &&
+        std::find(chosen.begin(), chosen.end(), c.effect) == chosen.end())
+      chosen.push_back(c.effect);
+  std::vector<Candidate> fits, variant_fits;
+  for (std::size_t i = 0; i < screened.size(); ++i) {
+    Candidate c = screened[i];
+    if (!(c.screen_gain > 0)) continue;
+    if (std::find(chosen.begin(), chosen.end(), c.effect) == chosen.end()) continue;
+    const double top = std::find_if(screened.begin(), screened.end(), [&](const Candidate& x) {
+                         return x.effect == c.effect;
+                       })->screen_gain;
+    if (c.screen_gain < 0.9 * top) continue;
+    const Effect& e = find_effect(c.effect);
+    const auto specs = e.params(ctx, c.variant);
+    LsqProblem pr;
+    pr.lo = pb.lo;
+    pr.hi = pb.hi;
+    pr.step = pb.step;
+    for (const auto& s : specs) {
+      pr.lo.push_back(to_z(s, s.lo));
+      pr.hi.push_back(to_z(s, s.hi));
+      pr.step.push_back(s.log ? 1e-2 : 1e-2 * (s.hi - s.lo) / 10);
+    }
+    const std::string variant = c.variant;
+    pr.physics = [&, specs, variant](const std::vector<double>& z) {
+      Physics p = base_physics(z);
+      std::vector<double> nat;
+      for (std::size_t q = 0; q < specs.size(); ++q) nat.push_back(from_z(specs[q], z[2 + q]));
+      e.apply(variant, nat, ctx, p);
+      return p;
+    };
+    pr.mask = &obs.train;
+    std::vector<double> z0 = base.z;
+    z0.insert(z0.end(), c.z.begin(), c.z.end());
+    const LsqResult r = least_squares(ev, pr, z0, opt.max_iterations);
+    c.fitted = true;
+    c.z = r.z;
+    c.chi2 = r.chi2;
+    c.k = static_cast<int>(specs.size()) + e.discrete_dof();
+    c.lrt = N * std::log(chi2_0 / std::max(r.chi2, 1e-300));
+    c.delta_bic = c.lrt - c.k * lnN;
+    c.rms = rms(obs, r.pred, obs.train);
+    c.heldout_rms = rms(obs, r.pred, obs.heldout);
+    c.youngs_modulus = std::exp(r.z[0]);
+    c.poisson_ratio = r.z[1];
+    c.pred = r.pred;
+    for (std::size_t q = 0; q < specs.size(); ++q) {
+      ParamEstimate pe;
+      pe.name = specs[q].name;
+      pe.unit = specs[q].unit;
+      pe.value = from_z(specs[q], r.z[2 + q]);
+      c.params.push_back(pe);
+    }
+    const double h0 =
+        obs.size() > static_cast<std::size_t>(ntrain) ? D.heldout_rms_before : D.rms_before;
+    const double h1 = obs.size() > static_cast<std::size_t>(ntrain) ? c.heldout_rms : c.rms;
+    const bool lrt_ok = c.lrt > chi2_crit999(std::max(1, c.k));
+    const bool bic_ok = c.delta_bic > 10;
+    const bool held_ok = h1 < 0.95 * h0;
+    c.passes = lrt_ok && bic_ok && held_ok;
+    c.why = fmt::format(
+        "LRT {:.1f} vs {:.1f} (p<0.001: {}), dBIC {:.1f} (>10: {}), held-out rms "
+        "{:.3g} vs {:.3g} ({:+.1f} %, needs <= -5 %: {})",
+        c.lrt, chi2_crit999(std::max(1, c.k)), lrt_ok ? "yes" : "no", c.delta_bic,
+        bic_ok ? "yes" : "no", h1, h0, 100 * (h1 / h0 - 1), held_ok ? "yes" : "no");
+    log::info("  refit {:<16} {:<12} chi2 {:.4g} -> {:.4g}; {}", c.effect, c.variant, chi2_0,
+              c.chi2, c.why);
+    variant_fits.push_back(std::move(c));
+  }
+  for (const std::string& name : chosen) {
+    const Candidate* b = nullptr;
+    for (const Candidate& c : variant_fits)
+      if (c.effect == name && (!b || c.delta_bic > b->delta_bic)) b = &c;
+    if (b) fits.push_back(*b);
+  }
+
+  // 6. Select.
+  std::vector<std::size_t> order(fits.size());
+  std::iota(order.begin(), order.end(), 0);
+  auto score = [&](const Candidate& c) {
+    return obs.size() > static_cast<std::size_t>(ntrain) ? c.heldout_rms : c.rms;
+  };
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    if (fits[a].passes != fits[b].passes) return fits[a].passes;
+    return score(fits[a]) < score(fits[b]);
+  });
+  const Candidate* best = !order.empty() && fits[order[0]].passes ? &fits[order[0]] : nullptr;
+  const Candidate* second = order.size() > 1
+                                ? &fits[order[1]]
+                                : (best ? nullptr : (order.empty() ? nullptr : &fits[order[0]]));
+  if (second) {
+    D.runner_up = second->effect + (second->variant.empty() ? "" : ":" + second->variant);
+    D.runner_up_heldout = score(*second);
+    D.runner_up_bic = second->delta_bic;
+  }
+  D.rms_after = D.rms_before;
+  D.heldout_rms_after = D.heldout_rms_before;
+  D.fitted_pred = base.pred;
+  if (!best) {
+    D.verdict = "none";
+    if (D.misfit)
+      D.unexplained = fmt::format(
+          "the calibrated deck leaves chi2/dof {:.3g} and residual whiteness p = {:.2g}, but no "
+          "effect of the library improves the held-out fit significantly: the remaining misfit is "
+          "model discrepancy (discretisation) or physics outside the library",
+          D.chi2_red, D.whiteness_p);
+  } else {
+    D.verdict = "missing_physics";
+    D.effect = best->effect;
+    D.variant = best->variant;
+    D.effect_parameters = best->params;
+    D.rms_after = best->rms;
+    D.heldout_rms_after = best->heldout_rms;
+    D.fitted_pred = best->pred;
+    D.youngs_modulus = best->youngs_modulus;
+    D.poisson_ratio = best->poisson_ratio;
+    if (D.effect == "heterogeneity") D.has_region = true, D.region = ctx.region;
+    if (second && second->passes && score(*second) < 1.02 * score(*best) &&
+        std::abs(second->delta_bic - best->delta_bic) < 10) {
+      D.verdict = "ambiguous";
+      // An experiment that separates them: scale the deck's load, see where they differ most.
+      const Effect& e1 = find_effect(best->effect);
+      const Effect& e2 = find_effect(second->effect);
+      auto phys_of = [&](const Effect& e, const Candidate& c, double scale) {
+        Physics p = base_physics(c.z);
+        std::vector<double> nat;
+        const auto specs = e.params(ctx, c.variant);
+        for (std::size_t q = 0; q < specs.size(); ++q) nat.push_back(from_z(specs[q], c.z[2 + q]));
+        e.apply(c.variant, nat, ctx, p);
+        p.load_scale = scale;
+        return p;
+      };
+      const double scales[2] = {0.5, 2.0};
+      const auto pr = ev.run({phys_of(e1, *best, scales[0]), phys_of(e2, *second, scales[0]),
+                              phys_of(e1, *best, scales[1]), phys_of(e2, *second, scales[1])});
+      double diff[2] = {0, 0};
+      for (int s = 0; s < 2; ++s)
+        if (pr[2 * s].ok && pr[2 * s + 1].ok) {
+          double acc = 0;
+          for (std::size_t i = 0; i < obs.size(); ++i)
+            acc += std::pow(pr[2 * s].y[i] - pr[2 * s + 1].y[i], 2);
+          diff[s] = std::sqrt(acc / static_cast<double>(obs.size()));
+        }
+      const int s = diff[1] > diff[0] ? 1 : 0;
+      D.ambiguity_experiment = fmt::format(
+          "{} and {} fit equally well. Repeat the test with the applied load scaled by {:g}: "
+          "the two fitted models then differ by {:.3g} m rms at the same markers ({:.1f} noise "
+          "sd; at scale {:g}: {:.3g} m).",
+          best->effect, second->effect, scales[s], diff[s], diff[s] / D.noise_position,
+          scales[1 - s], diff[1 - s]);
+    }
+  }
+
+  // 7. Profile-likelihood intervals of the selected effect's parameters (others re-optimised
+  // along the linearised conditional optimum; one forward run per end point).
+  if (best && !best->params.empty()) {
+    const Effect& e = find_effect(best->effect);
+    const auto specs = e.params(ctx, best->variant);
+    std::vector<ParamSpec> all_specs = base_specs;
+    all_specs.insert(all_specs.end(), specs.begin(), specs.end());
+    LsqProblem pr;
+    pr.lo = pb.lo;
+    pr.hi = pb.hi;
+    pr.step = pb.step;
+    for (const auto& s : specs) {
+      pr.lo.push_back(to_z(s, s.lo));
+      pr.hi.push_back(to_z(s, s.hi));
+      pr.step.push_back(s.log ? 1e-2 : 1e-2 * (s.hi - s.lo) / 10);
+    }
+    // Jacobian at the optimum.
+    const std::size_t np = best->z.size();
+    std::vector<Physics> jb;
+    auto phys = [&](const std::vector<double>& z) {
+      Physics p = base_physics(z);
+      std::vector<double> nat;
+      for (std::size_t q = 0; q < specs.size(); ++q) nat.push_back(from_z(specs[q], z[2 + q]));
+      e.apply(best->variant, nat, ctx, p);
+      return p;
+    };
+    std::vector<double> hstep(np);
+    for (std::size_t j = 0; j < np; ++j) {
+      std::vector<double> z = best->z;
+      hstep[j] = pr.step[j];
+      if (z[j] + hstep[j] > pr.hi[j]) hstep[j] = -hstep[j];
+      z[j] += hstep[j];
+      jb.push_back(phys(z));
+    }
+    const auto jp = ev.run(jb);
+    const Eigen::VectorXd rb = weighted_residual(obs, best->pred, obs.train);
+    Eigen::MatrixXd J(rb.size(), static_cast<Eigen::Index>(np));
+    for (std::size_t j = 0; j < np; ++j)
+      J.col(static_cast<Eigen::Index>(j)) =
+          (weighted_residual(obs, jp[j], obs.train) - rb) / hstep[j];
+    const double s2 = best->chi2 / std::max(1.0, N - static_cast<double>(np));
+    const Eigen::MatrixXd H = J.transpose() * J;
+    const Eigen::MatrixXd cov = s2 * H.completeOrthogonalDecomposition().pseudoInverse();
+    std::vector<Physics> ends;
+    std::vector<std::vector<double>> zends;
+    for (std::size_t q = 0; q < specs.size(); ++q) {
+      const std::size_t j = 2 + q;
+      const double se = std::sqrt(
+          std::max(cov(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(j)), 1e-30));
+      for (int side = -1; side <= 1; side += 2) {
+        std::vector<double> z = best->z;
+        const double dz = std::clamp(best->z[j] + side * 2.0 * se, pr.lo[j], pr.hi[j]) - best->z[j];
+        // Others at the linearised conditional optimum.
+        std::vector<Eigen::Index> oth;
+        for (std::size_t o = 0; o < np; ++o)
+          if (o != j) oth.push_back(static_cast<Eigen::Index>(o));
+        Eigen::MatrixXd Jo(J.rows(), static_cast<Eigen::Index>(oth.size()));
+        for (std::size_t o = 0; o < oth.size(); ++o)
+          Jo.col(static_cast<Eigen::Index>(o)) = J.col(oth[o]);
+        const Eigen::VectorXd shift =
+            Jo.colPivHouseholderQr().solve(-J.col(static_cast<Eigen::Index>(j)) * dz);
+        for (std::size_t o = 0; o < oth.size(); ++o)
+          z[static_cast<std::size_t>(oth[o])] = std::clamp(
+              z[static_cast<std::size_t>(oth[o])] + shift[static_cast<Eigen::Index>(o)],
+              pr.lo[static_cast<std::size_t>(oth[o])], pr.hi[static_cast<std::size_t>(oth[o])]);
+        z[j] += dz;
+        zends.push_back(z);
+        ends.push_back(phys(z));
+      }
+    }
+    const auto ep = ev.run(ends);
+    for (std::size_t q = 0; q < specs.size(); ++q) {
+      const std::size_t j = 2 + q;
+      ParamEstimate& pe = D.effect_parameters[q];
+      for (int s = 0; s < 2; ++s) {
+        const std::size_t idx = 2 * q + static_cast<std::size_t>(s);
+        const double dz = zends[idx][j] - best->z[j];
+        const double dchi =
+            ep[idx].ok
+                ? (weighted_residual(obs, ep[idx], obs.train).squaredNorm() - best->chi2) / s2
+                : 1e300;
+        double zend;
+        bool at_bound = false;
+        if (dz == 0) {
+          zend = best->z[j];
+          at_bound = true;
+        } else if (dchi < 3.84) {
+          // Not reached within the step: the interval extends at least to the probe (bound
+          // when the probe sat on it).
+          zend = zends[idx][j];
+          at_bound = zend <= pr.lo[j] || zend >= pr.hi[j];
+          if (!at_bound) zend = best->z[j] + dz * std::sqrt(3.84 / std::max(dchi, 1e-12));
+        } else {
+          zend = best->z[j] + dz * std::sqrt(3.84 / dchi);
+        }
+        zend = std::clamp(zend, pr.lo[j], pr.hi[j]);
+        const double v = from_z(specs[q], zend);
+        if (s == 0)
+          pe.ci_lo = v, pe.ci_at_bound_lo = at_bound;
+        else
+          pe.ci_hi = v, pe.ci_at_bound_hi = at_bound;
+      }
+    }
+  }
+
+  // Signatures of the calibrated deck's misfit (on the worst marker's main component).
+  {
+    const int worst = [&] {
+      std::size_t w = 0;
+      for (std::size_t c = 0; c < D.channel_rms_before.size(); ++c)
+        if (D.channel_rms_before[c] > D.channel_rms_before[w]) w = c;
+      return static_cast<int>(w);
+    }();
+    const double t_free = events.empty() ? tb : events.back();
+    const double T = 2 * kPi / ctx.omega;
+    // Per window: obs - mean = alpha (sim - mean) + beta dsim/dt; shift = -beta/alpha.
+    struct Win {
+      double t, alpha, shift, offset;
+    };
+    std::map<int, std::vector<Win>> per_comp;
+    double best_var = -1;
+    int comp = 0;
+    for (int d = 0; d < 3; ++d) {
+      std::vector<double> y;
+      for (std::size_t i = 0; i < obs.size(); ++i)
+        if (obs.channel[i] == worst && obs.component[i] == d) y.push_back(obs.y[i]);
+      double m = std::accumulate(y.begin(), y.end(), 0.0) / std::max<std::size_t>(1, y.size()),
+             v = 0;
+      for (double x : y) v += (x - m) * (x - m);
+      if (v > best_var) best_var = v, comp = d;
+    }
+    std::vector<double> ts, yo, ys;
+    for (std::size_t i = 0; i < obs.size(); ++i)
+      if (obs.channel[i] == worst && obs.component[i] == comp) {
+        ts.push_back(obs.t[i]);
+        yo.push_back(obs.y[i]);
+        ys.push_back(base.pred.y[i]);
+      }
+    std::vector<Win> wins;
+    for (double w0 = t_free; w0 + T <= te + 1e-12; w0 += T) {
+      std::vector<std::size_t> idx;
+      for (std::size_t i = 0; i < ts.size(); ++i)
+        if (ts[i] >= w0 && ts[i] < w0 + T) idx.push_back(i);
+      if (idx.size() < 6) continue;
+      double mo = 0, ms = 0;
+      for (auto i : idx) mo += yo[i], ms += ys[i];
+      mo /= static_cast<double>(idx.size());
+      ms /= static_cast<double>(idx.size());
+      Eigen::MatrixXd A(static_cast<Eigen::Index>(idx.size()), 2);
+      Eigen::VectorXd b(static_cast<Eigen::Index>(idx.size()));
+      for (std::size_t k = 0; k < idx.size(); ++k) {
+        const std::size_t i = idx[k];
+        const std::size_t a = i ? i - 1 : i, c = std::min(i + 1, ts.size() - 1);
+        A(static_cast<Eigen::Index>(k), 0) = ys[i] - ms;
+        A(static_cast<Eigen::Index>(k), 1) = (ys[c] - ys[a]) / std::max(ts[c] - ts[a], 1e-12);
+        b[static_cast<Eigen::Index>(k)] = yo[i] - mo;
+      }
+      const Eigen::Vector2d x = A.colPivHouseholderQr().solve(b);
+      if (std::abs(x[0]) < 1e-6) continue;
+      wins.push_back({w0 + 0.5 * T, x[0], -x[1] / x[0], mo - ms});
+    }
+    Signature amp{"amplitude_decay"}, freq{"frequency_shift"}, off{"static_offset"},
+        perm{"permanent_set"}, mode{"mode_shape_change"};
+    if (wins.size() >= 3) {
+      // Slopes by least squares.
+      auto slope = [&](auto get) {
+        double st = 0, sy = 0, stt = 0, sty = 0, n = 0;
+        for (const Win& w : wins) {
+          const double y = get(w);
+          st += w.t, sy += y, stt += w.t * w.t, sty += w.t * y, n += 1;
+        }
+        return (n * sty - st * sy) / std::max(n * stt - st * st, 1e-300);
+      };
+      const double dlnA =
+          slope([](const Win& w) { return std::log(std::max(std::abs(w.alpha), 1e-9)); });
+      const double dshift = slope([](const Win& w) { return w.shift; });
+      amp.value = dlnA;
+      amp.present = dlnA < -0.02 && std::abs(wins.back().alpha / wins.front().alpha - 1) > 0.05;
+      amp.detail = fmt::format(
+          "observed/simulated amplitude ratio changes at {:+.3g} per s "
+          "({:.3g} -> {:.3g})",
+          dlnA, wins.front().alpha, wins.back().alpha);
+      freq.value = dshift;
+      freq.present = std::abs(dshift) > 0.005;
+      freq.detail = fmt::format(
+          "phase lag grows at {:.3g} s/s: the observed frequency is {:+.2f} % "
+          "of the simulated",
+          dshift, -100 * dshift);
+      double mo = 0;
+      for (const Win& w : wins) mo += w.offset;
+      mo /= static_cast<double>(wins.size());
+      off.value = mo;
+      off.present = std::abs(mo) > 3 * D.noise_position;
+      off.detail = fmt::format("mean offset {:.3g} m after {:g} s ({:.1f} noise sd)", mo, t_free,
+                               mo / D.noise_position);
+      // Offset present from the start (load/gravity) or only after loading (permanent set).
+      double early = 0;
+      int ne = 0;
+      for (std::size_t i = 0; i < ts.size(); ++i)
+        if (ts[i] < tb + 0.05 * (te - tb)) early += yo[i] - ys[i], ++ne;
+      early = ne ? early / ne : 0;
+      perm.value = mo - early;
+      perm.present = off.present && std::abs(early) < 0.3 * std::abs(mo) && !events.empty();
+      perm.detail = fmt::format("offset {:.3g} m at the start, {:.3g} m after the load is removed",
+                                early, mo);
+    }
+    // Mode shape: spread over markers of the observed/simulated amplitude ratio.
+    {
+      std::vector<double> ratio;
+      for (std::size_t c = 0; c < obs.requests.size(); ++c) {
+        double so = 0, ss = 0;
+        std::vector<double> o, s;
+        for (std::size_t i = 0; i < obs.size(); ++i)
+          if (obs.channel[i] == static_cast<int>(c) && obs.component[i] == comp &&
+              obs.t[i] >= t_free)
+            o.push_back(obs.y[i]), s.push_back(base.pred.y[i]);
+        if (o.size() < 4) continue;
+        const double mo = std::accumulate(o.begin(), o.end(), 0.0) / static_cast<double>(o.size());
+        const double ms = std::accumulate(s.begin(), s.end(), 0.0) / static_cast<double>(s.size());
+        for (std::size_t k = 0; k < o.size(); ++k)
+          so += std::pow(o[k] - mo, 2), ss += std::pow(s[k] - ms, 2);
+        if (ss > std::pow(5 * D.noise_position, 2) * static_cast<double>(o.size()))
+          ratio.push_back(std::sqrt(so / ss));
+      }
+      if (ratio.size() >= 3) {
+        const double m =
+            std::accumulate(ratio.begin(), ratio.end(), 0.0) / static_cast<double>(ratio.size());
+        double v = 0;
+        for (double r : ratio) v += (r - m) * (r - m);
+        mode.value = std::sqrt(v / static_cast<double>(ratio.size() - 1)) / m;
+        mode.present = mode.value > 0.05;
+        mode.detail = fmt::format("observed/simulated amplitude varies by {:.1f} % between markers",
+                                  100 * mode.value);
+      }
+    }
+    D.signatures = {amp, freq, off, perm, mode};
+  }
+
+  D.candidates = fits;
+  for (const Candidate& v : variant_fits)
+    if (std::none_of(fits.begin(), fits.end(), [&](const Candidate& f) {
+          return f.effect == v.effect && f.variant == v.variant;
+        }))
+      D.candidates.push_back(v);
+  for (const Candidate& s : screened)
+    if (std::none_of(D.candidates.begin(), D.candidates.end(), [&](const Candidate& f) {
+          return f.effect == s.effect && f.variant == s.variant;
+        }))
+      D.candidates.push_back(s);
+  D.bin_e_after = bin_energy(D.fitted_pred);
+  D.channel_rms_after = channel_rms(D.fitted_pred);
+  D.runs = ev.runs();
+  D.run_seconds = ev.run_seconds();
+  D.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  log::info(
+      "verdict: {}{}; rms {:.3g} -> {:.3g} m, held-out {:.3g} -> {:.3g} m ({} runs, {:.1f} s)",
+      D.verdict, D.effect.empty() ? "" : " (" + D.effect + ")", D.rms_before, D.rms_after,
+      D.heldout_rms_before, D.heldout_rms_after, D.runs, D.wall_seconds);
+  if (rank == 0) write_reports(opt.out_dir, D, obs);
+  MPI_Barrier(comm);
+  return 0;
+}
+
+}  // namespace gen4d::diagnose

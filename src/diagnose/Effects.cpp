@@ -1,0 +1,360 @@
+#include "diagnose/Effects.hpp"
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/Error.hpp"
+
+namespace gen4d::diagnose {
+
+namespace {
+
+using Groups = std::vector<std::vector<std::vector<double>>>;
+
+//! Rayleigh damping C = alpha M + beta K.
+class Damping final : public Effect {
+ public:
+  std::string name() const override { return "damping"; }
+  std::string summary() const override {
+    return "Rayleigh damping C = alpha M + beta K (mass- and stiffness-proportional)";
+  }
+  std::string signature() const override {
+    return "exponential amplitude decay (beta: faster for higher modes)";
+  }
+  //! mass: C = alpha M; stiffness: C = beta K; rayleigh: both (one mode cannot tell them
+  //! apart, so the one-term variants are tried too and BIC picks).
+  std::vector<std::string> variants(const EffectContext&) const override {
+    return {"mass", "stiffness", "rayleigh"};
+  }
+  std::vector<ParamSpec> params(const EffectContext& c, const std::string& v) const override {
+    const ParamSpec a{"alpha", "1/s", 0.0, c.omega, false},
+        b{"beta", "s", 0.0, 1.0 / c.omega, false};
+    if (v == "mass") return {a};
+    if (v == "stiffness") return {b};
+    return {a, b};
+  }
+  Groups probe_groups(const EffectContext& c, const std::string& v) const override {
+    if (v == "mass") return {{{0.04 * c.omega}}};
+    if (v == "stiffness") return {{{0.04 / c.omega}}};
+    return {{{0.04 * c.omega, 0.0}, {0.0, 0.04 / c.omega}}};
+  }
+  bool scalable() const override { return true; }
+  std::vector<double> null_values(const EffectContext&, const std::string& v) const override {
+    return v == "rayleigh" ? std::vector<double>{0, 0} : std::vector<double>{0};
+  }
+  void apply(const std::string& v, const std::vector<double>& p, const EffectContext&,
+             Physics& ph) const override {
+    if (v == "mass")
+      ph.rayleigh_alpha = p[0];
+    else if (v == "stiffness")
+      ph.rayleigh_beta = p[0];
+    else
+      ph.rayleigh_alpha = p[0], ph.rayleigh_beta = p[1];
+  }
+};
+
+//! Standard linear solid: a fraction g of the stress relaxes with time constant tau.
+class Viscoelasticity final : public Effect {
+ public:
+  std::string name() const override { return "viscoelasticity"; }
+  std::string summary() const override {
+    return "one-term Prony series (standard linear solid): fraction g relaxes with time tau";
+  }
+  std::string signature() const override {
+    return "frequency-dependent decay with a frequency shift; slow creep under a held load";
+  }
+  std::vector<ParamSpec> params(const EffectContext& c, const std::string&) const override {
+    return {{"g", "", 0.0, 0.9, false}, {"tau", "s", 0.01 / c.omega, 100.0 / c.omega, true}};
+  }
+  Groups probe_groups(const EffectContext& c, const std::string&) const override {
+    return {{{0.05, 0.1 / c.omega}}, {{0.05, 1.0 / c.omega}}, {{0.05, 10.0 / c.omega}}};
+  }
+  std::vector<double> null_values(const EffectContext& c, const std::string&) const override {
+    return {0, 1.0 / c.omega};
+  }
+  void apply(const std::string&, const std::vector<double>& p, const EffectContext&,
+             Physics& ph) const override {
+    ph.prony_g = p[0];
+    ph.prony_tau = p[1];
+  }
+};
+
+//! Von Mises plasticity with linear isotropic hardening.
+class Plasticity final : public Effect {
+ public:
+  std::string name() const override { return "plasticity"; }
+  std::string summary() const override {
+    return "von Mises yield with linear isotropic hardening (Hencky elasticity)";
+  }
+  std::string signature() const override {
+    return "permanent set after the load is removed; extra decay while yielding";
+  }
+  std::vector<ParamSpec> params(const EffectContext& c, const std::string&) const override {
+    return {{"yield_stress", "Pa", 0.05 * c.max_mises, 2.0 * c.max_mises, true},
+            {"hardening", "Pa", 0.0, c.base.youngs_modulus, false}};
+  }
+  Groups probe_groups(const EffectContext& c, const std::string&) const override {
+    const double H = 0.02 * c.base.youngs_modulus;
+    return {{{0.4 * c.max_mises, H}}, {{0.6 * c.max_mises, H}}, {{0.8 * c.max_mises, H}}};
+  }
+  std::vector<double> null_values(const EffectContext& c, const std::string&) const override {
+    return {2.0 * c.max_mises, 0};
+  }
+  void apply(const std::string&, const std::vector<double>& p, const EffectContext& c,
+             Physics& ph) const override {
+    // At the upper bound nothing yields: keep the elastic law there (the null model).
+    if (p[0] < 1.999 * c.max_mises) ph.yield_stress = p[0];
+    ph.hardening = p[1];
+  }
+};
+
+//! Another hyperelastic law with the same E and nu.
+class MaterialLaw final : public Effect {
+ public:
+  std::string name() const override { return "material_law"; }
+  std::string summary() const override {
+    return "another hyperelastic law (neo_hookean, stvk, corotated) with the same E, nu";
+  }
+  std::string signature() const override {
+    return "amplitude-dependent stiffness: static offset and frequency change at large strain";
+  }
+  std::vector<std::string> variants(const EffectContext& c) const override {
+    std::vector<std::string> v;
+    for (const char* law : {"corotated", "neo_hookean", "stvk"})
+      if (c.base.law != law) v.push_back(law);
+    return v;
+  }
+  std::vector<ParamSpec> params(const EffectContext&, const std::string&) const override {
+    return {};
+  }
+  Groups probe_groups(const EffectContext&, const std::string&) const override { return {{{}}}; }
+  std::vector<double> null_values(const EffectContext&, const std::string&) const override {
+    return {};
+  }
+  void apply(const std::string& variant, const std::vector<double>&, const EffectContext&,
+             Physics& ph) const override {
+    if (!variant.empty()) ph.law = variant;
+  }
+  int discrete_dof() const override { return 1; }
+};
+
+//! One region of the body with a different stiffness.
+class Heterogeneity final : public Effect {
+ public:
+  std::string name() const override { return "heterogeneity"; }
+  std::string summary() const override {
+    return "one box region (located by the stiffness sensitivity map) with E times a factor";
+  }
+  std::string signature() const override {
+    return "mode-shape change and frequency shift; error concentrated near the region";
+  }
+  bool applicable(const EffectContext& c) const override { return c.has_region; }
+  std::vector<ParamSpec> params(const EffectContext&, const std::string&) const override {
+    return {{"stiffness_factor", "", 0.05, 20.0, true}};
+  }
+  Groups probe_groups(const EffectContext&, const std::string&) const override { return {{{0.7}}}; }
+  bool scalable() const override { return false; }
+  std::vector<double> null_values(const EffectContext&, const std::string&) const override {
+    return {1.0};
+  }
+  void apply(const std::string&, const std::vector<double>& p, const EffectContext& c,
+             Physics& ph) const override {
+    ph.has_region = true;
+    ph.region = c.region;
+    ph.region_factor = p[0];
+  }
+  int discrete_dof() const override { return 6; }
+};
+
+//! Missing or misdirected gravity / body load.
+class Gravity final : public Effect {
+ public:
+  std::string name() const override { return "gravity"; }
+  std::string summary() const override {
+    return "body acceleration (gx, gy, gz) other than the deck's gravity";
+  }
+  std::string signature() const override {
+    return "static offset (sag) from the start; oscillation about a shifted mean";
+  }
+  std::vector<ParamSpec> params(const EffectContext&, const std::string&) const override {
+    return {{"gx", "m/s^2", -30, 30, false},
+            {"gy", "m/s^2", -30, 30, false},
+            {"gz", "m/s^2", -30, 30, false}};
+  }
+  Groups probe_groups(const EffectContext& c, const std::string&) const override {
+    std::vector<std::vector<double>> g(3,
+                                       {c.base.gravity[0], c.base.gravity[1], c.base.gravity[2]});
+    for (int a = 0; a < 3; ++a) g[static_cast<std::size_t>(a)][static_cast<std::size_t>(a)] += 1.0;
+    return {g};
+  }
+  bool scalable() const override { return true; }
+  std::vector<double> null_values(const EffectContext& c, const std::string&) const override {
+    return {c.base.gravity[0], c.base.gravity[1], c.base.gravity[2]};
+  }
+  void apply(const std::string&, const std::vector<double>& p, const EffectContext&,
+             Physics& ph) const override {
+    ph.gravity = {p[0], p[1], p[2]};
+  }
+};
+
+//! Elastic (and viscous) support instead of a rigid clamp.
+class ClampCompliance final : public Effect {
+ public:
+  std::string name() const override { return "clamp_compliance"; }
+  std::string summary() const override {
+    return "the [[fixed]] nodes held by springs and dashpots per unit clamp area";
+  }
+  std::string signature() const override {
+    return "lower frequencies (mostly the first mode), motion at the support, mode-shape change";
+  }
+  std::vector<ParamSpec> params(const EffectContext& c, const std::string&) const override {
+    const double k = c.base.youngs_modulus / c.model->h();
+    return {{"stiffness", "Pa/m", 1e-3 * k, 1e4 * k, true},
+            {"damping", "Pa s/m", 0.0, 1e4 * k / c.omega, false}};
+  }
+  Groups probe_groups(const EffectContext& c, const std::string&) const override {
+    const double k = c.base.youngs_modulus / c.model->h();
+    return {{{0.1 * k, 0}}, {{1.0 * k, 0}}, {{10.0 * k, 0}}};
+  }
+  std::vector<double> null_values(const EffectContext& c, const std::string&) const override {
+    return {1e4 * c.base.youngs_modulus / c.model->h(), 0};
+  }
+  void apply(const std::string&, const std::vector<double>& p, const EffectContext& c,
+             Physics& ph) const override {
+    if (p[0] < 0.999e4 * c.base.youngs_modulus / c.model->h()) {
+      ph.clamp_stiffness = p[0];
+      ph.clamp_damping = p[1];
+    }
+  }
+};
+
+//! Ground contact with Coulomb friction.
+class ContactFriction final : public Effect {
+ public:
+  std::string name() const override { return "contact_friction"; }
+  std::string summary() const override {
+    return "a ground plane z = height (normal +z) with Coulomb friction";
+  }
+  std::string signature() const override {
+    return "motion stops or flattens below a level; decay while sliding on the ground";
+  }
+  std::vector<ParamSpec> params(const EffectContext& c, const std::string&) const override {
+    const double a = std::max(c.amplitude, c.model->h());
+    return {{"height", "m", c.lowest_point - 3 * a, c.lowest_point + 0.5 * a, false},
+            {"friction", "", 0.0, 2.0, false}};
+  }
+  Groups probe_groups(const EffectContext& c, const std::string&) const override {
+    const double a = std::max(c.amplitude, c.model->h());
+    return {{{c.lowest_point, 0.3}}, {{c.lowest_point - 0.2 * a, 0.3}}};
+  }
+  std::vector<double> null_values(const EffectContext& c, const std::string&) const override {
+    return {c.lowest_point - 3 * std::max(c.amplitude, c.model->h()), 0};
+  }
+  void apply(const std::string&, const std::vector<double>& p, const EffectContext&,
+             Physics& ph) const override {
+    ph.ground = true;
+    ph.ground_height = p[0];
+    ph.ground_friction = p[1];
+  }
+};
+
+//! Aerodynamic drag on the exposed surface.
+class AirDrag final : public Effect {
+ public:
+  std::string name() const override { return "air_drag"; }
+  std::string summary() const override {
+    return "surface drag per exposed area: -(linear v + quadratic |v| v)";
+  }
+  std::string signature() const override {
+    return "amplitude decay; quadratic part decays faster at large amplitude";
+  }
+  std::vector<ParamSpec> params(const EffectContext& c, const std::string&) const override {
+    const double b1 = unit_linear(c), b2 = b1 / std::max(c.max_speed, 1e-6);
+    return {{"linear", "Pa s/m", 0.0, 25.0 * b1, false},
+            {"quadratic", "kg/m^3", 0.0, 250.0 * b2, false}};
+  }
+  Groups probe_groups(const EffectContext& c, const std::string&) const override {
+    const double b1 = unit_linear(c), b2 = b1 / std::max(c.max_speed, 1e-6);
+    return {{{b1, 0.0}, {0.0, b2}}};
+  }
+  bool scalable() const override { return true; }
+  std::vector<double> null_values(const EffectContext&, const std::string&) const override {
+    return {0, 0};
+  }
+  void apply(const std::string&, const std::vector<double>& p, const EffectContext&,
+             Physics& ph) const override {
+    ph.drag_linear = p[0];
+    ph.drag_quadratic = p[1];
+  }
+
+ private:
+  //! Linear drag equivalent to a 2 % damping ratio of the body as a whole.
+  static double unit_linear(const EffectContext& c) {
+    return 0.04 * c.omega * c.total_mass / std::max(c.surface_area, 1e-12);
+  }
+};
+
+//! Dry friction: a force of constant magnitude opposing the velocity.
+class CoulombDamping final : public Effect {
+ public:
+  std::string name() const override { return "coulomb_damping"; }
+  std::string summary() const override {
+    return "dry friction: force m a_c opposing each node's velocity";
+  }
+  std::string signature() const override {
+    return "linear (amplitude-independent per cycle) decay, motion stops at a finite time";
+  }
+  std::vector<ParamSpec> params(const EffectContext& c, const std::string&) const override {
+    return {
+        {"friction_accel", "m/s^2", 0.0, c.omega * c.omega * std::max(c.amplitude, 1e-9), false}};
+  }
+  Groups probe_groups(const EffectContext& c, const std::string&) const override {
+    return {{{0.02 * c.omega * c.omega * std::max(c.amplitude, 1e-9)}}};
+  }
+  bool scalable() const override { return true; }
+  std::vector<double> null_values(const EffectContext&, const std::string&) const override {
+    return {0};
+  }
+  void apply(const std::string&, const std::vector<double>& p, const EffectContext&,
+             Physics& ph) const override {
+    ph.coulomb_accel = p[0];
+  }
+};
+
+}  // namespace
+
+const std::vector<std::unique_ptr<Effect>>& effect_library() {
+  static const std::vector<std::unique_ptr<Effect>> lib = [] {
+    std::vector<std::unique_ptr<Effect>> l;
+    l.push_back(std::make_unique<Damping>());
+    l.push_back(std::make_unique<Viscoelasticity>());
+    l.push_back(std::make_unique<Plasticity>());
+    l.push_back(std::make_unique<MaterialLaw>());
+    l.push_back(std::make_unique<Heterogeneity>());
+    l.push_back(std::make_unique<Gravity>());
+    l.push_back(std::make_unique<ClampCompliance>());
+    l.push_back(std::make_unique<ContactFriction>());
+    l.push_back(std::make_unique<AirDrag>());
+    l.push_back(std::make_unique<CoulombDamping>());
+    return l;
+  }();
+  return lib;
+}
+
+std::vector<std::string> effect_names() {
+  std::vector<std::string> n;
+  for (const auto& e : effect_library()) n.push_back(e->name());
+  return n;
+}
+
+const Effect& find_effect(const std::string& name) {
+  for (const auto& e : effect_library())
+    if (e->name() == name) return *e;
+  throw InputError(
+      fmt::format("unknown effect '{}'; known effects: {}", name, fmt::join(effect_names(), ", ")));
+}
+
+}  // namespace gen4d::diagnose

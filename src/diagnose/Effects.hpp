@@ -1,0 +1,75 @@
+//! The library of candidate effects `gen4d diagnose` can add to a deck. Each effect is a few
+//! parameters of the forward model (diagnose::Physics) that reduce to the deck's physics at
+//! their null value, scales and screening probes derived from the scene, and the signature
+//! it leaves in a recording.
+//
+// Adding an effect: one class in Effects.cpp deriving from Effect, appended to the list in
+// effect_library(). Names are what `--effects` and report.json use.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "diagnose/Model.hpp"
+
+namespace gen4d::diagnose {
+
+//! Scene scales the effects size their parameters and probes from.
+struct EffectContext {
+  const VoxelModel* model = nullptr;
+  Physics base;             //!< calibrated baseline
+  double omega = 1;         //!< dominant angular frequency of the motion, rad/s
+  double max_mises = 0;     //!< peak von Mises stress of the baseline run, Pa
+  double max_speed = 0;     //!< peak node speed of the baseline run, m/s
+  double amplitude = 0;     //!< typical displacement amplitude of the markers, m
+  double total_mass = 0;    //!< kg
+  double surface_area = 0;  //!< exposed area, m^2
+  double lowest_point = 0;  //!< lowest observed marker z, m
+  bool has_region = false;  //!< a region was located by the stiffness sensitivity map
+  BoxRegion region;
+};
+
+//! One parameter in natural units; the optimiser works on log(value) when `log` is set.
+struct ParamSpec {
+  std::string name, unit;
+  double lo = 0, hi = 0;  //!< bounds, natural units
+  bool log = false;
+};
+
+class Effect {
+ public:
+  virtual ~Effect() = default;
+  virtual std::string name() const = 0;
+  //! One line: what the effect adds to the model.
+  virtual std::string summary() const = 0;
+  //! What it does to a recording (amplitude decay, frequency shift, ...).
+  virtual std::string signature() const = 0;
+  //! Discrete alternatives (material_law: the other laws); default: one unnamed variant.
+  virtual std::vector<std::string> variants(const EffectContext&) const { return {""}; }
+  //! False when the effect cannot apply to the scene (e.g. heterogeneity without a region).
+  virtual bool applicable(const EffectContext&) const { return true; }
+  virtual std::vector<ParamSpec> params(const EffectContext& c,
+                                        const std::string& variant) const = 0;
+  //! Screening probes, natural units: each group's probes are combined linearly.
+  virtual std::vector<std::vector<std::vector<double>>> probe_groups(
+      const EffectContext& c, const std::string& variant) const = 0;
+  //! True when the model response grows from the null value in proportion to the parameters
+  //! (so a probe may be scaled to start the fit).
+  virtual bool scalable() const { return false; }
+  //! Null value of the parameters (the baseline), natural units.
+  virtual std::vector<double> null_values(const EffectContext& c,
+                                          const std::string& variant) const = 0;
+  virtual void apply(const std::string& variant, const std::vector<double>& p,
+                     const EffectContext& c, Physics& ph) const = 0;
+  //! Free choices beyond the continuous parameters, counted in BIC (region, law).
+  virtual int discrete_dof() const { return 0; }
+};
+
+//! Every registered effect, in a fixed order.
+const std::vector<std::unique_ptr<Effect>>& effect_library();
+//! The effect called `name`; InputError listing the known names otherwise.
+const Effect& find_effect(const std::string& name);
+std::vector<std::string> effect_names();
+
+}  // namespace gen4d::diagnose

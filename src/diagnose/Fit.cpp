@@ -1,0 +1,312 @@
+#include "diagnose/Fit.hpp"
+
+#include <petsctao.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "core/Error.hpp"
+#include "core/Log.hpp"
+#include "parallel/PetscCheck.hpp"
+
+namespace gen4d::diagnose {
+
+Evaluator::Evaluator(MPI_Comm comm, const VoxelModel& model, const Observations& obs)
+    : comm_(comm), model_(model), obs_(obs) {
+  MPI_Comm_rank(comm, &rank_);
+  MPI_Comm_size(comm, &size_);
+}
+
+std::vector<Prediction> Evaluator::run(const std::vector<Physics>& batch) {
+  std::vector<Prediction> out(batch.size());
+  double local_seconds = 0;
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    if (static_cast<int>(i % static_cast<std::size_t>(size_)) != rank_) continue;
+    const auto t0 = std::chrono::steady_clock::now();
+    const Trace tr = model_.run(batch[i], obs_.requests);
+    local_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    Prediction& p = out[i];
+    p.ok = tr.ok;
+    p.failure = tr.failure;
+    p.max_mises = tr.max_mises;
+    p.max_speed = tr.max_speed;
+    if (tr.ok) {
+      p.y.reserve(obs_.size());
+      for (const auto& c : tr.channel) p.y.insert(p.y.end(), c.begin(), c.end());
+    }
+  }
+  // Share every result from the rank that computed it.
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    const int owner = static_cast<int>(i % static_cast<std::size_t>(size_));
+    Prediction& p = out[i];
+    double head[4] = {p.ok ? 1.0 : 0.0, p.max_mises, p.max_speed,
+                      static_cast<double>(p.failure.size())};
+    MPI_Bcast(head, 4, MPI_DOUBLE, owner, comm_);
+    p.ok = head[0] != 0.0;
+    p.max_mises = head[1];
+    p.max_speed = head[2];
+    p.failure.resize(static_cast<std::size_t>(head[3]));
+    if (!p.failure.empty())
+      MPI_Bcast(p.failure.data(), static_cast<int>(p.failure.size()), MPI_CHAR, owner, comm_);
+    if (p.ok) {
+      p.y.resize(obs_.size());
+      MPI_Bcast(p.y.data(), static_cast<int>(p.y.size()), MPI_DOUBLE, owner, comm_);
+    }
+  }
+  double all = 0;
+  MPI_Allreduce(&local_seconds, &all, 1, MPI_DOUBLE, MPI_SUM, comm_);
+  seconds_ += all;
+  runs_ += static_cast<long>(batch.size());
+  return out;
+}
+
+Eigen::VectorXd weighted_residual(const Observations& obs, const Prediction& p,
+                                  const std::vector<char>& mask) {
+  std::size_t n = 0;
+  for (char m : mask) n += m ? 1 : 0;
+  Eigen::VectorXd r(static_cast<Eigen::Index>(n));
+  Eigen::Index k = 0;
+  for (std::size_t i = 0; i < obs.size(); ++i) {
+    if (!mask[i]) continue;
+    r[k++] = p.ok ? (p.y[i] - obs.y[i]) / obs.sigma[i] : 100.0;
+  }
+  return r;
+}
+
+double rms(const Observations& obs, const Prediction& p, const std::vector<char>& mask) {
+  double s = 0;
+  long n = 0;
+  for (std::size_t i = 0; i < obs.size(); ++i) {
+    if (!mask[i] || !p.ok) continue;
+    const double d = p.y[i] - obs.y[i];
+    s += d * d;
+    ++n;
+  }
+  return n ? std::sqrt(s / static_cast<double>(n)) : std::nan("");
+}
+
+namespace {
+
+struct TaoContext {
+  Evaluator* ev;
+  const LsqProblem* prob;
+  std::vector<double> z_cached;
+  Prediction pred_cached;
+  Eigen::VectorXd r_cached;
+  bool have_cached = false;
+  std::vector<double> z_jac;
+  Eigen::MatrixXd J;
+  // best point seen
+  std::vector<double> z_best;
+  Prediction pred_best;
+  Eigen::VectorXd r_best;
+  double chi2_best = 1e300;
+  long runs = 0;
+  //! 1 / f(z0): TAO's bound-activity estimate and tolerances expect an O(1) objective.
+  double scale = 1;
+};
+
+std::vector<double> to_std(Vec X) {
+  PetscInt n;
+  VecGetLocalSize(X, &n);
+  const PetscScalar* a;
+  VecGetArrayRead(X, &a);
+  std::vector<double> z(a, a + n);
+  VecRestoreArrayRead(X, &a);
+  return z;
+}
+
+void note(TaoContext& c, const std::vector<double>& z, const Prediction& p,
+          const Eigen::VectorXd& r) {
+  c.z_cached = z;
+  c.pred_cached = p;
+  c.r_cached = r;
+  c.have_cached = true;
+  const double chi2 = r.squaredNorm();
+  if (p.ok && chi2 < c.chi2_best) {
+    c.chi2_best = chi2;
+    c.z_best = z;
+    c.pred_best = p;
+    c.r_best = r;
+  }
+}
+
+void evaluate_at(TaoContext& c, const std::vector<double>& z) {
+  if (c.have_cached && c.z_cached == z) return;
+  const Prediction p = c.ev->run_one(c.prob->physics(z));
+  ++c.runs;
+  note(c, z, p, weighted_residual(c.ev->observations(), p, *c.prob->mask));
+}
+
+//! Forward-difference Jacobian at z, columns computed in one parallel batch.
+void jacobian_at(TaoContext& c, const std::vector<double>& z) {
+  const std::size_t n = z.size();
+  std::vector<Physics> batch;
+  std::vector<double> h(n);
+  const bool need_base = !(c.have_cached && c.z_cached == z);
+  if (need_base) batch.push_back(c.prob->physics(z));
+  for (std::size_t j = 0; j < n; ++j) {
+    std::vector<double> zj = z;
+    h[j] = c.prob->step[j];
+    if (zj[j] + h[j] > c.prob->hi[j]) h[j] = -h[j];
+    zj[j] += h[j];
+    batch.push_back(c.prob->physics(zj));
+  }
+  const auto preds = c.ev->run(batch);
+  c.runs += static_cast<long>(batch.size());
+  std::size_t k = 0;
+  if (need_base) {
+    note(c, z, preds[0], weighted_residual(c.ev->observations(), preds[0], *c.prob->mask));
+    k = 1;
+  }
+  c.J.resize(c.r_cached.size(), static_cast<Eigen::Index>(n));
+  for (std::size_t j = 0; j < n; ++j) {
+    const Eigen::VectorXd rj = weighted_residual(c.ev->observations(), preds[k + j], *c.prob->mask);
+    c.J.col(static_cast<Eigen::Index>(j)) = (rj - c.r_cached) / h[j];
+  }
+  c.z_jac = z;
+  std::string zs;
+  for (double v : z) zs += fmt::format(" {:.5g}", v);
+  log::info("    fit: chi2 {:.6g} at z ={} ({} runs so far)", c.r_cached.squaredNorm(), zs, c.runs);
+}
+
+//! f = |r|^2 / 2 and g = J^T r, with the Jacobian's columns run in parallel.
+PetscErrorCode tao_objective_gradient(Tao, Vec X, PetscReal* f, Vec G, void* ctx) {
+  auto& c = *static_cast<TaoContext*>(ctx);
+  const std::vector<double> z = to_std(X);
+  evaluate_at(c, z);
+  if (!(z == c.z_jac && c.J.rows() == c.r_cached.size())) jacobian_at(c, z);
+  *f = c.scale * 0.5 * c.r_cached.squaredNorm();
+  const Eigen::VectorXd g = c.scale * (c.J.transpose() * c.r_cached);
+  PetscScalar* a;
+  PetscCall(VecGetArray(G, &a));
+  for (Eigen::Index i = 0; i < g.size(); ++i) a[i] = g[i];
+  PetscCall(VecRestoreArray(G, &a));
+  return 0;
+}
+
+//! Objective alone (line-search trial points): one forward run.
+PetscErrorCode tao_objective(Tao, Vec X, PetscReal* f, void* ctx) {
+  auto& c = *static_cast<TaoContext*>(ctx);
+  evaluate_at(c, to_std(X));
+  *f = c.scale * 0.5 * c.r_cached.squaredNorm();
+  return 0;
+}
+
+//! Gauss-Newton Hessian J^T J (plus a tiny ridge so flat directions stay invertible).
+PetscErrorCode tao_hessian(Tao, Vec X, Mat H, Mat, void* ctx) {
+  auto& c = *static_cast<TaoContext*>(ctx);
+  const std::vector<double> z = to_std(X);
+  if (!(z == c.z_jac && c.J.rows() == c.r_cached.size())) {
+    evaluate_at(c, z);
+    jacobian_at(c, z);
+  }
+  Eigen::MatrixXd JtJ = c.scale * (c.J.transpose() * c.J);
+  const double ridge = 1e-9 * std::max(JtJ.trace(), 1e-300);
+  const Eigen::Index n = JtJ.rows();
+  PetscScalar* a;
+  PetscCall(MatDenseGetArray(H, &a));
+  for (Eigen::Index j = 0; j < n; ++j)
+    for (Eigen::Index i = 0; i < n; ++i) a[j * n + i] = JtJ(i, j) + (i == j ? ridge : 0.0);
+  PetscCall(MatDenseRestoreArray(H, &a));
+  PetscCall(MatAssemblyBegin(H, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(H, MAT_FINAL_ASSEMBLY));
+  return 0;
+}
+
+}  // namespace
+
+LsqResult least_squares(Evaluator& ev, const LsqProblem& prob, std::vector<double> z0,
+                        int max_iterations) {
+  const PetscInt n = static_cast<PetscInt>(z0.size());
+  for (std::size_t j = 0; j < z0.size(); ++j) z0[j] = std::clamp(z0[j], prob.lo[j], prob.hi[j]);
+  TaoContext c;
+  c.ev = &ev;
+  c.prob = &prob;
+  LsqResult res;
+  if (n == 0) {
+    evaluate_at(c, z0);
+    res.z = z0;
+    res.pred = c.pred_cached;
+    res.r = c.r_cached;
+    res.chi2 = res.r.squaredNorm();
+    res.runs = c.runs;
+    res.J.resize(res.r.size(), 0);
+    res.reason = "no free parameter";
+    return res;
+  }
+  evaluate_at(c, z0);
+  c.scale = 1.0 / std::max(0.5 * c.r_cached.squaredNorm(), 1e-300);
+  Vec x, xl, xu;
+  Mat H;
+  Tao tao;
+  parallel::check(VecCreateSeq(PETSC_COMM_SELF, n, &x), "VecCreateSeq");
+  parallel::check(VecDuplicate(x, &xl), "VecDuplicate");
+  parallel::check(VecDuplicate(x, &xu), "VecDuplicate");
+  parallel::check(MatCreateSeqDense(PETSC_COMM_SELF, n, n, nullptr, &H), "MatCreateSeqDense");
+  for (PetscInt j = 0; j < n; ++j) {
+    parallel::check(VecSetValue(x, j, z0[static_cast<std::size_t>(j)], INSERT_VALUES),
+                    "VecSetValue");
+    parallel::check(VecSetValue(xl, j, prob.lo[static_cast<std::size_t>(j)], INSERT_VALUES),
+                    "VecSetValue");
+    parallel::check(VecSetValue(xu, j, prob.hi[static_cast<std::size_t>(j)], INSERT_VALUES),
+                    "VecSetValue");
+  }
+  for (Vec v : {x, xl, xu}) {
+    parallel::check(VecAssemblyBegin(v), "VecAssemblyBegin");
+    parallel::check(VecAssemblyEnd(v), "VecAssemblyEnd");
+  }
+  parallel::check(TaoCreate(PETSC_COMM_SELF, &tao), "TaoCreate");
+  // Bounded Newton line search on |r|^2 / 2 with the Gauss-Newton Hessian: a bounded
+  // Gauss-Newton method whose steps TAO safeguards.
+  parallel::check(TaoSetType(tao, TAOBNLS), "TaoSetType");
+  parallel::check(TaoSetOptionsPrefix(tao, "diagnose_"), "TaoSetOptionsPrefix");
+  parallel::check(TaoSetSolution(tao, x), "TaoSetSolution");
+  parallel::check(TaoSetVariableBounds(tao, xl, xu), "TaoSetVariableBounds");
+  parallel::check(TaoSetObjective(tao, tao_objective, &c), "TaoSetObjective");
+  parallel::check(TaoSetObjectiveAndGradient(tao, nullptr, tao_objective_gradient, &c),
+                  "TaoSetObjectiveAndGradient");
+  parallel::check(TaoSetHessian(tao, H, H, tao_hessian, &c), "TaoSetHessian");
+  parallel::check(TaoSetTolerances(tao, 1e-10, 1e-5, 1e-4), "TaoSetTolerances");
+  parallel::check(TaoSetMaximumIterations(tao, max_iterations), "TaoSetMaximumIterations");
+  parallel::check(TaoSetFromOptions(tao), "TaoSetFromOptions");
+  parallel::check(TaoSolve(tao), "TaoSolve");
+  TaoConvergedReason reason;
+  PetscInt its;
+  parallel::check(TaoGetConvergedReason(tao, &reason), "TaoGetConvergedReason");
+  parallel::check(TaoGetIterationNumber(tao, &its), "TaoGetIterationNumber");
+  res.reason = TaoConvergedReasons[reason];
+  res.iterations = static_cast<int>(its);
+  log::info("    fit: TAO {} after {} iterations", res.reason, its);
+  parallel::check(TaoDestroy(&tao), "TaoDestroy");
+  parallel::check(MatDestroy(&H), "MatDestroy");
+  for (Vec* v : {&x, &xl, &xu}) parallel::check(VecDestroy(v), "VecDestroy");
+
+  if (c.z_best.empty()) {  // every run failed
+    res.z = z0;
+    res.pred = c.pred_cached;
+    res.r = c.r_cached;
+    res.chi2 = res.r.squaredNorm();
+    res.runs = c.runs;
+    return res;
+  }
+  res.z = c.z_best;
+  res.pred = c.pred_best;
+  res.r = c.r_best;
+  res.chi2 = c.chi2_best;
+  if (c.z_jac != res.z) {
+    c.z_cached = res.z;
+    c.pred_cached = res.pred;
+    c.r_cached = res.r;
+    c.have_cached = true;
+    jacobian_at(c, res.z);
+  }
+  res.J = c.J;
+  res.runs = c.runs;
+  return res;
+}
+
+}  // namespace gen4d::diagnose

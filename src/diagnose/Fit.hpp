@@ -1,0 +1,90 @@
+//! Forward runs spread over ranks, and bounded nonlinear least squares with PETSc TAO (BRGN,
+//! Gauss-Newton with finite-difference Jacobians whose columns run in parallel).
+#pragma once
+
+#include <mpi.h>
+
+#include <Eigen/Dense>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "diagnose/Model.hpp"
+
+namespace gen4d::diagnose {
+
+//! The observations: every sample of every channel, 3 components, flattened channel by
+//! channel; `sigma` weights each one (noise of its channel kind).
+struct Observations {
+  std::vector<ChannelRequest> requests;
+  std::vector<std::string> ids;
+  std::vector<double> y;       //!< observed values
+  std::vector<double> t;       //!< time of each value
+  std::vector<int> channel;    //!< channel of each value
+  std::vector<int> component;  //!< 0, 1, 2
+  std::vector<double> sigma;   //!< noise of each value
+  std::vector<char> train;     //!< used by the fits
+  std::vector<char> heldout;   //!< used only to score
+  std::size_t size() const { return y.size(); }
+};
+
+struct Prediction {
+  bool ok = false;
+  std::string failure;
+  std::vector<double> y;  //!< same layout as Observations::y
+  double max_mises = 0, max_speed = 0;
+};
+
+//! Runs batches of forward models, each on one rank, results shared by all ranks.
+class Evaluator {
+ public:
+  Evaluator(MPI_Comm comm, const VoxelModel& model, const Observations& obs);
+  std::vector<Prediction> run(const std::vector<Physics>& batch);
+  Prediction run_one(const Physics& p) { return run({p})[0]; }
+  long runs() const { return runs_; }
+  double run_seconds() const { return seconds_; }  //!< summed over ranks' runs
+  const Observations& observations() const { return obs_; }
+  const VoxelModel& model() const { return model_; }
+  MPI_Comm comm() const { return comm_; }
+
+ private:
+  MPI_Comm comm_;
+  int rank_ = 0, size_ = 1;
+  const VoxelModel& model_;
+  const Observations& obs_;
+  long runs_ = 0;
+  double seconds_ = 0;
+};
+
+//! Weighted residual (pred - obs) / sigma on the observations where mask is set; a failed
+//! run gives a large constant residual so optimisers step back.
+Eigen::VectorXd weighted_residual(const Observations& obs, const Prediction& p,
+                                  const std::vector<char>& mask);
+//! Root mean square of (pred - obs) in metres / m s^-2 over mask.
+double rms(const Observations& obs, const Prediction& p, const std::vector<char>& mask);
+
+//! A bounded least-squares problem in internal coordinates z (log of positive parameters).
+struct LsqProblem {
+  std::vector<double> lo, hi;  //!< bounds on z
+  std::vector<double> step;    //!< finite-difference step on z
+  //! Physics of a point z.
+  std::function<Physics(const std::vector<double>& z)> physics;
+  const std::vector<char>* mask = nullptr;  //!< observations fitted
+};
+
+struct LsqResult {
+  std::vector<double> z;
+  Prediction pred;
+  Eigen::VectorXd r;  //!< weighted residual at z
+  Eigen::MatrixXd J;  //!< its Jacobian (forward differences) at z
+  double chi2 = 0;
+  int iterations = 0;
+  long runs = 0;
+  std::string reason;  //!< TAO's converged reason
+};
+
+//! Minimises |r(z)|^2 from z0 with TAO BRGN; every rank runs the same iterations.
+LsqResult least_squares(Evaluator& ev, const LsqProblem& prob, std::vector<double> z0,
+                        int max_iterations);
+
+}  // namespace gen4d::diagnose

@@ -1,0 +1,420 @@
+#include "diagnose/Report.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "core/Error.hpp"
+#include "io/Plot.hpp"
+
+namespace gen4d::diagnose {
+
+namespace {
+
+std::string jnum(double v) {
+  if (!std::isfinite(v)) return "null";
+  return fmt::format("{:.9g}", v);
+}
+
+std::string jstr(const std::string& s) {
+  std::string o = "\"";
+  for (char c : s) {
+    switch (c) {
+      case '"':
+        o += "\\\"";
+        break;
+      case '\\':
+        o += "\\\\";
+        break;
+      case '\n':
+        o += "\\n";
+        break;
+      case '\t':
+        o += "\\t";
+        break;
+      default:
+        if (static_cast<unsigned char>(c) < 0x20)
+          o += fmt::format("\\u{:04x}", static_cast<int>(c));
+        else
+          o += c;
+    }
+  }
+  return o + "\"";
+}
+
+std::string jbox(const BoxRegion& b) {
+  return fmt::format("[[{}, {}, {}], [{}, {}, {}]]", jnum(b.lo[0]), jnum(b.lo[1]), jnum(b.lo[2]),
+                     jnum(b.hi[0]), jnum(b.hi[1]), jnum(b.hi[2]));
+}
+
+std::string jparams(const std::vector<ParamEstimate>& ps, const std::string& variant,
+                    bool with_ci) {
+  std::string s = "{";
+  bool first = true;
+  if (!variant.empty()) {
+    s += "\"law\": " + jstr(variant);
+    first = false;
+  }
+  for (const auto& p : ps) {
+    if (!first) s += ", ";
+    first = false;
+    s += jstr(p.name) + ": {\"value\": " + jnum(p.value);
+    if (with_ci)
+      s += fmt::format(", \"ci95\": [{}, {}], \"ci95_at_bound\": [{}, {}]", jnum(p.ci_lo),
+                       jnum(p.ci_hi), p.ci_at_bound_lo ? "true" : "false",
+                       p.ci_at_bound_hi ? "true" : "false");
+    if (!p.unit.empty()) s += ", \"unit\": " + jstr(p.unit);
+    s += "}";
+  }
+  return s + "}";
+}
+
+//! Writes text to path through a temporary file and a rename.
+void write_atomic(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::binary);
+    if (!f) throw RuntimeError("cannot write " + tmp);
+    f << text;
+    if (!f.flush()) throw RuntimeError("cannot write " + tmp);
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw RuntimeError("cannot rename " + tmp + " to " + path + ": " + ec.message());
+}
+
+std::string json(const Diagnosis& d) {
+  std::string s = "{\n";
+  auto kv = [&](const std::string& k, const std::string& v, bool last = false) {
+    s += "  " + jstr(k) + ": " + v + (last ? "\n" : ",\n");
+  };
+  kv("verdict", jstr(d.verdict));
+  kv("effect", d.effect.empty() ? "null" : jstr(d.effect));
+  kv("effect_parameters",
+     jparams(d.effect_parameters, d.effect == "material_law" ? d.variant : "", true));
+  kv("effect_variant", d.variant.empty() ? "null" : jstr(d.variant));
+  kv("baseline_parameters",
+     fmt::format("{{\"youngs_modulus\": {}, \"poisson_ratio\": {}, \"density\": {}, "
+                 "\"youngs_modulus_over_density\": {}, \"nominal_youngs_modulus\": {}, "
+                 "\"nominal_poisson_ratio\": {}, \"density_calibrated\": false}}",
+                 jnum(d.youngs_modulus), jnum(d.poisson_ratio), jnum(d.density),
+                 jnum(d.youngs_modulus / d.density), jnum(d.youngs_nominal),
+                 jnum(d.poisson_nominal)));
+  kv("region", d.has_region ? jbox(d.region) : "null");
+  kv("located_region", d.located ? jbox(d.located_region) : "null");
+  std::string tw = "[";
+  for (std::size_t i = 0; i < d.time_windows.size(); ++i)
+    tw += fmt::format("{}[{}, {}]", i ? ", " : "", jnum(d.time_windows[i].first),
+                      jnum(d.time_windows[i].second));
+  kv("time_windows", tw + "]");
+  std::string ph = "[";
+  for (std::size_t i = 0; i < d.window_phase.size(); ++i)
+    ph += (i ? ", " : "") + jstr(d.window_phase[i]);
+  kv("time_window_phases", ph + "]");
+  std::string mk = "[";
+  for (std::size_t i = 0; i < d.markers.size(); ++i) mk += (i ? ", " : "") + jstr(d.markers[i]);
+  kv("markers", mk + "]");
+  kv("rms_nominal", jnum(d.rms_nominal));
+  kv("rms_before", jnum(d.rms_before));
+  kv("rms_after", jnum(d.rms_after));
+  kv("heldout_rms_nominal", jnum(d.heldout_rms_nominal));
+  kv("heldout_rms_before", jnum(d.heldout_rms_before));
+  kv("heldout_rms_after", jnum(d.heldout_rms_after));
+  kv("runner_up", d.runner_up.empty()
+                      ? "null"
+                      : fmt::format("{{\"effect\": {}, \"score\": {}, \"heldout_rms\": {}, "
+                                    "\"delta_bic\": {}}}",
+                                    jstr(d.runner_up), jnum(d.runner_up_heldout),
+                                    jnum(d.runner_up_heldout), jnum(d.runner_up_bic)));
+  kv("noise_estimate", jnum(d.noise_position));
+  kv("noise_estimate_acceleration", jnum(d.noise_acceleration));
+  kv("misfit_tests",
+     fmt::format("{{\"chi2_per_dof\": {}, \"whiteness_p\": {}, \"lag1\": {}, "
+                 "\"misfit\": {}}}",
+                 jnum(d.chi2_red), jnum(d.whiteness_p), jnum(d.lag1), d.misfit ? "true" : "false"));
+  kv("numerical_check",
+     fmt::format("{{\"dt\": {}, \"dt_half_amplitude_change_in_noise_sd\": {}, "
+                 "\"dt_half_late_difference_in_noise_sd\": {}, \"dt_halved\": {}}}",
+                 jnum(d.dt), jnum(d.numerical_change), jnum(d.numerical_dispersion),
+                 d.dt_halved ? "true" : "false"));
+  std::string sg = "[";
+  for (std::size_t i = 0; i < d.signatures.size(); ++i)
+    sg += fmt::format("{}{{\"name\": {}, \"present\": {}, \"value\": {}, \"detail\": {}}}",
+                      i ? ", " : "", jstr(d.signatures[i].name),
+                      d.signatures[i].present ? "true" : "false", jnum(d.signatures[i].value),
+                      jstr(d.signatures[i].detail));
+  kv("signatures", sg + "]");
+  std::string cs = "[";
+  for (std::size_t i = 0; i < d.candidates.size(); ++i) {
+    const Candidate& c = d.candidates[i];
+    cs += fmt::format(
+        "{}\n    {{\"effect\": {}, \"variant\": {}, \"screen_chi2_drop\": {}, \"refitted\": {}",
+        i ? "," : "", jstr(c.effect), c.variant.empty() ? "null" : jstr(c.variant),
+        jnum(c.screen_gain), c.fitted ? "true" : "false");
+    if (c.fitted)
+      cs += fmt::format(
+          ", \"parameters\": {}, \"chi2\": {}, \"k\": {}, \"lrt\": {}, "
+          "\"delta_bic\": {}, \"rms\": {}, \"heldout_rms\": {}, \"passes\": {}, "
+          "\"why\": {}",
+          jparams(c.params, "", false), jnum(c.chi2), c.k, jnum(c.lrt), jnum(c.delta_bic),
+          jnum(c.rms), jnum(c.heldout_rms), c.passes ? "true" : "false", jstr(c.why));
+    cs += "}";
+  }
+  kv("candidates", cs + "]");
+  kv("ambiguity_experiment",
+     d.ambiguity_experiment.empty() ? "null" : jstr(d.ambiguity_experiment));
+  kv("unexplained_misfit", d.unexplained.empty() ? "null" : jstr(d.unexplained));
+  kv("deck", jstr(d.deck));
+  kv("recording", jstr(d.recording));
+  kv("cost",
+     fmt::format("{{\"forward_runs\": {}, \"run_seconds\": {}, \"wall_seconds\": {}, "
+                 "\"ranks\": {}}}",
+                 d.runs, jnum(d.run_seconds), jnum(d.wall_seconds), d.ranks),
+     true);
+  return s + "}\n";
+}
+
+std::string markdown(const Diagnosis& d) {
+  std::ostringstream m;
+  m << "# gen4d diagnose\n\n";
+  m << fmt::format("Deck `{}`, recording `{}`.\n\n", d.deck, d.recording);
+  m << "## Verdict\n\n";
+  if (d.verdict == "none") {
+    m << "**No missing physics.** After calibrating the baseline no effect of the library "
+         "improves the fit to held-out data significantly.\n\n";
+    if (!d.unexplained.empty()) m << "Note: " << d.unexplained << ".\n\n";
+  } else {
+    m << fmt::format("**{}: {}**{}.\n\n",
+                     d.verdict == "ambiguous" ? "Ambiguous" : "Missing physics", d.effect,
+                     d.variant.empty() ? "" : " (law " + d.variant + ")");
+    if (!d.effect_parameters.empty()) {
+      m << "| parameter | value | 95 % profile interval |\n|---|---|---|\n";
+      for (const auto& p : d.effect_parameters)
+        m << fmt::format("| {} | {:.4g} {} | [{:.4g}{}, {:.4g}{}] |\n", p.name, p.value, p.unit,
+                         p.ci_lo, p.ci_at_bound_lo ? " (bound)" : "", p.ci_hi,
+                         p.ci_at_bound_hi ? " (bound)" : "");
+      m << "\n";
+    }
+    if (d.has_region)
+      m << fmt::format("Region: [{:.4g}, {:.4g}, {:.4g}] to [{:.4g}, {:.4g}, {:.4g}] m.\n\n",
+                       d.region.lo[0], d.region.lo[1], d.region.lo[2], d.region.hi[0],
+                       d.region.hi[1], d.region.hi[2]);
+    if (!d.ambiguity_experiment.empty()) m << d.ambiguity_experiment << "\n\n";
+  }
+  m << "## Fit\n\n| | fitted data rms (m) | held-out rms (m) |\n|---|---|---|\n";
+  m << fmt::format("| nominal deck | {:.4g} | {:.4g} |\n", d.rms_nominal, d.heldout_rms_nominal);
+  m << fmt::format("| calibrated baseline | {:.4g} | {:.4g} |\n", d.rms_before,
+                   d.heldout_rms_before);
+  m << fmt::format("| with the selected effect | {:.4g} | {:.4g} |\n\n", d.rms_after,
+                   d.heldout_rms_after);
+  m << fmt::format(
+      "Noise estimate (local cubic fits of the recording): {:.3g} m. Calibrated E = {:.4g} Pa "
+      "(deck {:.4g}), nu = {:.3f} (deck {:.3f}); density kept at {:g} kg/m^3, so E/rho = {:.4g} "
+      "m^2/s^2 is what the data fix.\n\n",
+      d.noise_position, d.youngs_modulus, d.youngs_nominal, d.poisson_ratio, d.poisson_nominal,
+      d.density, d.youngs_modulus / d.density);
+  m << fmt::format(
+      "Numerical dissipation check: rerunning at dt/2 changes the late-time amplitude by {:.3g} "
+      "noise sd (the trapezoidal rule adds no damping) and the late-time motion by {:.3g} noise "
+      "sd (phase, absorbed by the calibrated E); dt = {:g} s{}.\n\n",
+      d.numerical_change, d.numerical_dispersion, d.dt,
+      d.dt_halved ? ", halved because of it" : "");
+  m << fmt::format(
+      "Misfit of the calibrated baseline: chi2/dof = {:.3g}, residual whiteness p = {:.2g} "
+      "(lag-1 autocorrelation {:.2f}) -> {}.\n\n",
+      d.chi2_red, d.whiteness_p, d.lag1,
+      d.misfit ? "something is not modelled" : "consistent with noise");
+  m << "## Where and when\n\n";
+  if (d.time_windows.empty())
+    m << "No time window has residual variance above twice the noise.\n\n";
+  for (std::size_t i = 0; i < d.time_windows.size(); ++i)
+    m << fmt::format("- {:.3g} s to {:.3g} s ({})\n", d.time_windows[i].first,
+                     d.time_windows[i].second, d.window_phase[i]);
+  m << "\nMost affected markers: ";
+  for (std::size_t i = 0; i < d.markers.size(); ++i) m << (i ? ", " : "") << d.markers[i];
+  m << ".\n\n";
+  if (d.located)
+    m << fmt::format(
+        "Stiffness sensitivity map: the residual points at [{:.4g}, {:.4g}, {:.4g}] to "
+        "[{:.4g}, {:.4g}, {:.4g}] m (see sensitivity.png).\n\n",
+        d.located_region.lo[0], d.located_region.lo[1], d.located_region.lo[2],
+        d.located_region.hi[0], d.located_region.hi[1], d.located_region.hi[2]);
+  m << "Signatures:\n\n";
+  for (const auto& s : d.signatures)
+    m << fmt::format("- {} {}: {}\n", s.present ? "[x]" : "[ ]", s.name, s.detail);
+  m << "\n## Candidates\n\n| effect | screening chi2 drop | refit chi2 | dBIC | held-out rms "
+       "(m) | selected by the rules |\n|---|---|---|---|---|---|\n";
+  for (const auto& c : d.candidates) {
+    if (c.fitted)
+      m << fmt::format("| {}{} | {:.4g} | {:.4g} | {:.1f} | {:.4g} | {} |\n", c.effect,
+                       c.variant.empty() ? "" : ":" + c.variant, c.screen_gain, c.chi2, c.delta_bic,
+                       c.heldout_rms, c.passes ? "passes" : "fails");
+    else
+      m << fmt::format("| {}{} | {:.4g} | not refitted | | | |\n", c.effect,
+                       c.variant.empty() ? "" : ":" + c.variant, c.screen_gain);
+  }
+  m << "\nRules: an effect is kept when its likelihood-ratio statistic passes p < 0.001, its "
+       "BIC improves by more than 10, and it lowers the held-out rms by at least 5 %; the best "
+       "kept effect has the lowest held-out rms; a second kept effect within 2 % of it and "
+       "10 in BIC makes the verdict ambiguous.\n\n";
+  m << fmt::format("Cost: {} forward runs, {:.1f} s of runs, {:.1f} s wall on {} rank(s).\n\n",
+                   d.runs, d.run_seconds, d.wall_seconds, d.ranks);
+  m << "Plots: residual_time.png, marker_error.png, trajectories.png"
+    << (d.located ? ", sensitivity.png" : "") << "; data: fit.csv.\n";
+  return m.str();
+}
+
+std::string fit_csv(const Diagnosis& d, const Observations& obs) {
+  std::string s = "channel,t,component,observed,baseline,fitted,heldout\n";
+  const char* comp = "xyz";
+  for (std::size_t i = 0; i < obs.size(); ++i)
+    s += fmt::format("{},{:.9g},{},{:.9g},{:.9g},{:.9g},{}\n",
+                     obs.ids[static_cast<std::size_t>(obs.channel[i])], obs.t[i],
+                     comp[obs.component[i]], obs.y[i],
+                     d.baseline_pred.ok ? d.baseline_pred.y[i] : std::nan(""),
+                     d.fitted_pred.ok ? d.fitted_pred.y[i] : std::nan(""), obs.heldout[i] ? 1 : 0);
+  return s;
+}
+
+//! The two axes along which the body is largest (the projection of the maps).
+std::pair<int, int> map_axes(const BoxRegion& b) {
+  int ax[3] = {0, 1, 2};
+  std::sort(ax, ax + 3, [&](int x, int y) { return b.hi[x] - b.lo[x] > b.hi[y] - b.lo[y]; });
+  return {std::min(ax[0], ax[1]), std::max(ax[0], ax[1])};
+}
+
+void plots(const std::string& dir, const Diagnosis& d, const Observations& obs) {
+  const char* axis_name = "XYZ";
+  {
+    io::LineChart c;
+    c.title = "Residual energy over time (1 = noise level)";
+    c.xlabel = "t (s)";
+    c.ylabel = "mean (residual / noise)^2";
+    c.log_y = true;
+    c.series.push_back({"calibrated baseline", d.bin_t, d.bin_e_before, io::palette_color(0)});
+    c.series.push_back({d.effect.empty() ? "selected model (= baseline)" : "with " + d.effect,
+                        d.bin_t, d.bin_e_after, io::palette_color(1)});
+    c.series.push_back({"noise level",
+                        {d.bin_t.front(), d.bin_t.back()},
+                        {1.0, 1.0},
+                        io::Rgb{120, 120, 120},
+                        false,
+                        1.0,
+                        true});
+    c.shaded_x = d.time_windows;
+    io::write_line_chart(dir + "/residual_time.png", c);
+  }
+  {
+    const auto [a, b] = map_axes(d.body);
+    std::vector<io::ScatterMap> maps(2);
+    for (int k = 0; k < 2; ++k) {
+      io::ScatterMap& m = maps[static_cast<std::size_t>(k)];
+      m.title =
+          k == 0 ? "Marker rms error, calibrated baseline" : "Marker rms error, selected model";
+      m.xlabel = std::string(1, axis_name[a]) + " (m)";
+      m.ylabel = std::string(1, axis_name[b]) + " (m)";
+      m.colorbar_label = "rms (m)";
+      for (std::size_t c = 0; c < d.channel_ids.size(); ++c) {
+        m.x.push_back(d.channel_X[c][static_cast<std::size_t>(a)]);
+        m.y.push_back(d.channel_X[c][static_cast<std::size_t>(b)]);
+        m.value.push_back(k == 0 ? d.channel_rms_before[c] : d.channel_rms_after[c]);
+        m.labels.push_back(d.channel_ids[c]);
+      }
+      m.rects.push_back({d.body.lo[a], d.body.lo[b], d.body.hi[a], d.body.hi[b]});
+      m.rect_colors.push_back({90, 90, 90});
+      if (d.has_region) {
+        m.rects.push_back({d.region.lo[a], d.region.lo[b], d.region.hi[a], d.region.hi[b]});
+        m.rect_colors.push_back({220, 50, 50});
+      }
+    }
+    io::share_color_scale(maps);
+    io::write_scatter_maps(dir + "/marker_error.png", maps, 2, 700, 420);
+    if (d.located && !d.block_center.empty()) {
+      io::ScatterMap m;
+      m.title = "Stiffness sensitivity (share of chi2 one super-voxel explains)";
+      m.xlabel = std::string(1, axis_name[a]) + " (m)";
+      m.ylabel = std::string(1, axis_name[b]) + " (m)";
+      m.colorbar_label = "share";
+      for (std::size_t i = 0; i < d.block_center.size(); ++i) {
+        m.x.push_back(d.block_center[i][static_cast<std::size_t>(a)]);
+        m.y.push_back(d.block_center[i][static_cast<std::size_t>(b)]);
+        m.value.push_back(d.block_gain[i]);
+      }
+      m.rects.push_back({d.body.lo[a], d.body.lo[b], d.body.hi[a], d.body.hi[b]});
+      m.rect_colors.push_back({90, 90, 90});
+      m.rects.push_back({d.located_region.lo[a], d.located_region.lo[b], d.located_region.hi[a],
+                         d.located_region.hi[b]});
+      m.rect_colors.push_back({220, 50, 50});
+      io::write_scatter_maps(dir + "/sensitivity.png", {m}, 1, 900, 420);
+    }
+  }
+  {
+    std::vector<io::LineChart> charts;
+    for (const std::string& id : d.markers) {
+      const auto it = std::find(obs.ids.begin(), obs.ids.end(), id);
+      const int c = static_cast<int>(it - obs.ids.begin());
+      // Main component: largest observed variance.
+      int comp = 0;
+      double best = -1;
+      for (int k = 0; k < 3; ++k) {
+        double m = 0, v = 0, n = 0;
+        for (std::size_t i = 0; i < obs.size(); ++i)
+          if (obs.channel[i] == c && obs.component[i] == k) m += obs.y[i], n += 1;
+        m /= std::max(n, 1.0);
+        for (std::size_t i = 0; i < obs.size(); ++i)
+          if (obs.channel[i] == c && obs.component[i] == k) v += std::pow(obs.y[i] - m, 2);
+        if (v > best) best = v, comp = k;
+      }
+      io::LineChart ch;
+      ch.title =
+          fmt::format("{} '{}', {}",
+                      obs.requests[static_cast<std::size_t>(c)].acceleration ? "sensor" : "marker",
+                      id, "xyz"[comp]);
+      ch.xlabel = "t (s)";
+      ch.ylabel = obs.requests[static_cast<std::size_t>(c)].acceleration ? "m/s^2" : "m";
+      io::Series so{"observed", {}, {}, io::Rgb{40, 40, 40}, true, 1.0};
+      io::Series sb{"calibrated baseline", {}, {}, io::palette_color(0)};
+      io::Series sf{d.effect.empty() ? "selected model" : "with " + d.effect,
+                    {},
+                    {},
+                    io::palette_color(1),
+                    false,
+                    1.5,
+                    true};
+      for (std::size_t i = 0; i < obs.size(); ++i)
+        if (obs.channel[i] == c && obs.component[i] == comp) {
+          so.x.push_back(obs.t[i]);
+          so.y.push_back(obs.y[i]);
+          sb.x.push_back(obs.t[i]);
+          sb.y.push_back(d.baseline_pred.ok ? d.baseline_pred.y[i] : std::nan(""));
+          sf.x.push_back(obs.t[i]);
+          sf.y.push_back(d.fitted_pred.ok ? d.fitted_pred.y[i] : std::nan(""));
+        }
+      ch.series = {so, sb, sf};
+      ch.shaded_x = d.time_windows;
+      charts.push_back(std::move(ch));
+    }
+    if (!charts.empty()) io::write_chart_grid(dir + "/trajectories.png", charts, 1, 1000, 320);
+  }
+}
+
+}  // namespace
+
+void write_reports(const std::string& dir, const Diagnosis& d, const Observations& obs) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw RuntimeError("cannot create output folder " + dir + ": " + ec.message());
+  write_atomic(dir + "/fit.csv", fit_csv(d, obs));
+  plots(dir, d, obs);
+  write_atomic(dir + "/report.md", markdown(d));
+  // report.json last: its presence marks a complete diagnosis.
+  write_atomic(dir + "/report.json", json(d));
+}
+
+}  // namespace gen4d::diagnose

@@ -1,0 +1,94 @@
+//! What a diagnosis found, and its outputs: report.json, report.md, fit.csv and PNG plots.
+#pragma once
+
+#include <array>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/Config.hpp"
+#include "diagnose/Fit.hpp"
+
+namespace gen4d::diagnose {
+
+struct ParamEstimate {
+  std::string name, unit;
+  double value = 0;
+  double ci_lo = 0, ci_hi = 0;  //!< 95 % profile-likelihood interval
+  bool ci_at_bound_lo = false, ci_at_bound_hi = false;
+};
+
+//! One refitted candidate.
+struct Candidate {
+  std::string effect, variant;
+  double screen_gain = 0;  //!< linearised chi-square drop at screening
+  bool fitted = false;
+  std::vector<ParamEstimate> params;
+  std::vector<double> z;  //!< internal coordinates (baseline first)
+  double chi2 = 0;        //!< training chi-square
+  int k = 0;              //!< parameters counted by BIC (continuous + discrete)
+  double lrt = 0;         //!< N ln(chi2_0 / chi2)
+  double delta_bic = 0;   //!< lrt - k ln N (> 0 favours the effect)
+  double rms = 0, heldout_rms = 0;
+  bool passes = false;
+  std::string why;  //!< why it passed or failed the selection rules
+  double youngs_modulus = 0, poisson_ratio = 0;
+  Prediction pred;
+};
+
+struct Signature {
+  std::string name;  //!< amplitude_decay | frequency_shift | static_offset | permanent_set |
+                     //!< mode_shape_change
+  bool present = false;
+  double value = 0;  //!< measured size (see detail)
+  std::string detail;
+};
+
+struct Diagnosis {
+  std::string deck, recording;
+  std::string verdict = "none";  //!< missing_physics | none | ambiguous
+  std::string effect;            //!< empty: null
+  std::string variant;
+  std::vector<ParamEstimate> effect_parameters;
+  double youngs_modulus = 0, poisson_ratio = 0, density = 0;
+  double youngs_nominal = 0, poisson_nominal = 0;
+  std::vector<ParamEstimate> baseline_ci;
+  bool has_region = false;
+  BoxRegion region;
+  BoxRegion located_region;  //!< from the sensitivity map (even when not selected)
+  bool located = false;
+  std::vector<std::pair<double, double>> time_windows;
+  std::vector<std::string> window_phase;
+  std::vector<std::string> markers;
+  double rms_nominal = 0, rms_before = 0, rms_after = 0;
+  double heldout_rms_nominal = 0, heldout_rms_before = 0, heldout_rms_after = 0;
+  std::string runner_up;
+  double runner_up_heldout = 0, runner_up_bic = 0;
+  double noise_position = 0, noise_acceleration = 0;
+  double chi2_red = 0, whiteness_p = 1, lag1 = 0;
+  bool misfit = false;
+  double dt = 0, numerical_change = 0;  //!< amplitude change of the dt/2 rerun, noise units
+  double numerical_dispersion = 0;      //!< late-time rms difference of the dt/2 rerun
+  bool dt_halved = false;
+  std::vector<Signature> signatures;
+  std::vector<Candidate> candidates;  //!< screened (gain) and refitted ones
+  std::string ambiguity_experiment;
+  std::string unexplained;
+  long runs = 0;
+  double wall_seconds = 0, run_seconds = 0;
+  int ranks = 1;
+  // plotting data
+  std::vector<double> bin_t, bin_e_before, bin_e_after;  //!< residual energy per time bin
+  std::vector<std::string> channel_ids;
+  std::vector<Vec3d> channel_X;
+  std::vector<double> channel_rms_before, channel_rms_after;
+  std::vector<Vec3d> block_center;
+  std::vector<double> block_gain;
+  Prediction baseline_pred, fitted_pred;
+  BoxRegion body;
+};
+
+//! Writes report.json, report.md, fit.csv and the PNGs into dir (rank 0 only).
+void write_reports(const std::string& dir, const Diagnosis& d, const Observations& obs);
+
+}  // namespace gen4d::diagnose
