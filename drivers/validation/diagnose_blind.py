@@ -108,6 +108,7 @@ import time
 import numpy as np
 
 T_RELEASE = 0.3
+STAIRS, STAIR = 10, 0.01   # material_law: axial pull switched on/off in stairs
 FS = 100.0
 RHO = 1000.0
 NU = 0.3
@@ -138,7 +139,7 @@ def base_case(name, kind, rng, effect=None, params=None, scored=(), noise=None):
                     1e-4 if kind == "small" else float(rng.uniform(5e-5, 2e-4))),
                 markers=b["markers"], seed=int(rng.integers(1 << 31)), effect=effect,
                 params=dict(params or {}), scored=list(scored), region=None,
-                notes="", stiffness_factor=None)
+                notes="", pulses=[])
 
 
 def length(case):
@@ -188,8 +189,12 @@ def case_material_law(name, rng, strain):
     c = base_case(name, "full", rng, "material_law", {"law": "neo_hookean"})
     nx, ny, nz = c["n"]
     area = ny * nz * c["h"] ** 2
-    c["force"][0] = float(strain * c["E_true"] * area)
-    c["notes"] = "axial pull for %.0f %% strain added to the tip load" % (100 * strain)
+    fx = strain * c["E_true"] * area
+    c["pulses"] = [(k * STAIR, T_RELEASE + k * STAIR, [fx / STAIRS, 0.0, 0.0])
+                   for k in range(STAIRS)]
+    c["notes"] = ("axial pull of %.4g N (%.0f %% strain) added to the tip load in %d stairs of "
+                  "%g s up from t = 0 and down from t = %g s" % (fx, 100 * strain, STAIRS,
+                                                               STAIR, T_RELEASE))
     return c
 
 
@@ -372,6 +377,24 @@ def lines_material(name, E, law, plastic):
     return out + ["*DENSITY", fmt(RHO)]
 
 
+def lines_amplitude(name, pulses, dof, scale, end_time):
+    """Amplitude of the total tip force in one dof, the sum of the pulses
+    (force on [start, end)) over scale.  ccx allows one amplitude per loaded
+    dof.  Jumps take 1e-6 s; loads are evaluated at increment ends, so they
+    act as step changes."""
+    def value(t):
+        return sum(f[dof] for t0, t1, f in pulses if t0 <= t < t1) / scale
+
+    breaks = sorted({t for t0, t1, _ in pulses for t in (t0, t1) if t > 0.0})
+    pts = [(0.0, value(0.0))]
+    for t in breaks:
+        pts += [(t, value(t - 1e-9)), (t + 1e-6, value(t))]
+    pts.append((end_time + 10.0, value(end_time + 10.0)))
+    return (["*AMPLITUDE,NAME=%s,TIME=TOTAL TIME" % name]
+            + [",".join("%s,%s" % (fmt(t), fmt(v)) for t, v in pts[i:i + 4])
+               for i in range(0, len(pts), 4)])
+
+
 class Grounds:
     """Fixed ground nodes and one-node springs / two-node dashpots to them."""
 
@@ -470,9 +493,11 @@ def write_inp(case, mesh, variant, print_nodes, end_time, clamp_stress=False):
     out += grounds.output()
     if eff == "damping":
         out += ["*DAMPING,ALPHA=%s,BETA=%s" % (fmt(p["alpha"]), fmt(p["beta"]))]
-    out += ["*AMPLITUDE,NAME=PULSE,TIME=TOTAL TIME",
-            "0.0,1.0,%s,1.0" % fmt(T_RELEASE),
-            "%s,0.0,%s,0.0" % (fmt(T_RELEASE + 1e-6), fmt(end_time + 10.0))]
+    pulses = [(0.0, T_RELEASE, case["force"])] + list(case["pulses"])
+    scale = [max(abs(f[d]) for _, _, f in pulses) for d in range(3)]
+    for d in range(3):
+        if scale[d] > 0.0:
+            out += lines_amplitude("LOAD%d" % (d + 1), pulses, d, scale[d], end_time)
     g = case["g_true"]
     gm = math.sqrt(sum(v * v for v in g))
     out += ["*STEP,NLGEOM,INC=1000000",
@@ -480,13 +505,12 @@ def write_inp(case, mesh, variant, print_nodes, end_time, clamp_stress=False):
             "%s,%s" % (fmt(case["dt"]), fmt(end_time))]
     if gm > 0:
         out += ["*DLOAD", "EALL,GRAV,%s,%s,%s,%s" % ((fmt(gm),) + tuple(fmt(v / gm) for v in g))]
-    out += ["*CLOAD,AMPLITUDE=PULSE"]
     total = sum(tip_area.values())
-    for nid in sorted(tip_area):
-        for d in range(3):
-            f = case["force"][d] * tip_area[nid] / total
-            if f != 0.0:
-                out.append("%d,%d,%s" % (nid, d + 1, fmt(f)))
+    for d in range(3):
+        if scale[d] > 0.0:
+            out += ["*CLOAD,AMPLITUDE=LOAD%d" % (d + 1)]
+            out += ["%d,%d,%s" % (nid, d + 1, fmt(scale[d] * tip_area[nid] / total))
+                    for nid in sorted(tip_area)]
     out += ["*NODE PRINT,NSET=NPRINT,FREQUENCY=1", "U"]
     if clamp_stress:
         out += ["*EL PRINT,ELSET=ECLAMP,FREQUENCY=2", "S"]
@@ -645,7 +669,11 @@ def deck_text(case):
         "youngs_modulus = %.9g" % E_nom, "poisson_ratio = %.9g" % NU, "density = %.9g" % RHO,
         "", "[[fixed]]", "lo = [-1, -1, -1]", "hi = [%.9g, 1, 1]" % (0.1 * h),
         "", "[[force]]", "lo = [%.9g, -1, -1]" % (L - 0.5 * h), "hi = %s" % vec([L + 1, 1, 1]),
-        "force = %s" % vec(case["force"]), "start = 0", "end = %.9g" % T_RELEASE, ""])
+        "force = %s" % vec(case["force"]), "start = 0", "end = %.9g" % T_RELEASE, ""]
+        + sum([["", "[[force]]", "lo = [%.9g, -1, -1]" % (L - 0.5 * h),
+                "hi = %s" % vec([L + 1, 1, 1]), "force = %s" % vec(f),
+                "start = %.9g" % t0, "end = %.9g" % t1]
+               for t0, t1, f in case["pulses"]], []) + [""])
 
 
 def write_recording(path, mesh, markers, t, u, noise, rng):
@@ -753,6 +781,7 @@ def truth_of(case, element, summary):
             "noise_sigma": case["noise"], "element": element, "notes": notes,
             "detectable": bool(detectable), "detect_snr": snr,
             "gravity": case["g_true"], "tip_force": case["force"],
+            "extra_pulses": case["pulses"],
             "release_time": T_RELEASE, "seed": case["seed"]}
 
 
@@ -816,6 +845,7 @@ def run_diagnose(gen4d, cdir, np_):
            "--recording", os.path.join(cdir, "recording.csv"), "--out", os.path.join(cdir, "diag")]
     if np_ > 1:
         cmd = ["mpirun", "-np", str(np_)] + cmd
+    shutil.rmtree(os.path.join(cdir, "diag"), ignore_errors=True)
     t0 = time.time()
     proc = subprocess.run(cmd, env=mpi_env(), stdout=subprocess.PIPE,
                           stderr=subprocess.STDOUT, text=True)
@@ -862,15 +892,19 @@ def score_case(truth, rep):
     return res
 
 
+def label(effect):
+    return "none" if effect is None else str(effect)
+
+
 def confusion(results):
-    rows = sorted({str(r["true"]) for r in results})
-    cols = sorted({str(r["true"]) for r in results} | {str(r["reported"]) for r in results}
-                  | {"None", "ambiguous"})
+    rows = sorted({label(r["true"]) for r in results})
+    cols = sorted({label(r["true"]) for r in results} | {label(r["reported"]) for r in results}
+                  | {"none", "ambiguous"})
     width = max(len(c) for c in cols + rows) + 1
-    print("confusion matrix (rows: true effect, columns: reported; None = no effect)")
+    print("confusion matrix (rows: true effect, columns: reported effect)")
     print(" " * width + "".join(c.rjust(width) for c in cols))
     for row in rows:
-        cells = [sum(1 for r in results if str(r["true"]) == row and str(r["reported"]) == c)
+        cells = [sum(1 for r in results if label(r["true"]) == row and label(r["reported"]) == c)
                  for c in cols]
         print(row.ljust(width) + "".join(str(v).rjust(width) for v in cells))
 
@@ -899,7 +933,8 @@ def summarize(results):
         if r.get("error"):
             extra.append("ERROR: " + r["error"])
         red_s = red if isinstance(red, str) else ("none" if red is None else "%.1f%%" % (100 * red))
-        print("%-22s %-16s %-16s %8s %10.1f %s" % (r["case"], r["true"], r["reported"], red_s,
+        print("%-22s %-16s %-16s %8s %10.1f %s" % (r["case"], label(r["true"]),
+                                                  label(r["reported"]), red_s,
                                                   r["wall_s"], "; ".join(extra)))
     print("\ntargets: rms reduction >= %.0f%%, parameters within %.0f%%, IoU >= %.1f"
           % (100 * TARGETS["rms_reduction"], 100 * TARGETS["param_error"], TARGETS["iou"]))
@@ -925,9 +960,9 @@ def cmd_score(args):
             truth = json.load(f)
         proc, wall = run_diagnose(args.gen4d, cdir, args.np)
         try:
-            res = score_case(truth, read_report(cdir))
             if proc.returncode != 0:
-                res["error"] = "gen4d diagnose exited with %d" % proc.returncode
+                raise ValueError("gen4d diagnose exited with %d" % proc.returncode)
+            res = score_case(truth, read_report(cdir))
         except (OSError, ValueError, KeyError, TypeError) as e:
             tail = "\n".join(proc.stdout.strip().splitlines()[-10:])
             print("case %s: no usable report (%s); gen4d exit %d, last output:\n%s"
