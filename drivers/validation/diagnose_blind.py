@@ -23,8 +23,11 @@ Per case, in DIR/CASE/: `deck.toml`, `recording.csv`
 `truth.json`, `ccx/model.inp` (the CalculiX input; large result files are
 deleted).  DIR/cases.json lists the cases.  `small` (3 cases: none, damping
 alpha, heterogeneity; a 10x2x2-voxel beam, 1 s) is meant for CI and runs in
-well under a minute; `full` (18 cases: 4 none, 2 per effect; 20x4x4 voxels,
-2 s) takes a few minutes per case.
+about 25 s per case (C3D20R, one core); `full` (18 cases: 4 none, 2 per
+effect; 20x4x4 voxels, 2 s) takes about 4 minutes per ccx run (5400
+equations, 1000 increments, two Newton iterations each), plus the reference
+runs of plasticity and material_law: about 1.5 hours.  `--only CASE...`
+generates a subset (the parameters do not depend on the subset).
 
 CalculiX model (ccx 2.20 behaviour checked by experiment)
 --------------------------------------------------------
@@ -32,10 +35,12 @@ CalculiX model (ccx 2.20 behaviour checked by experiment)
   (0.002 s).  ccx accepts ALPHA in [-1/3, 0] (larger values are reset to 0,
   smaller to -1/3 with a warning); 0 is the Newmark trapezoidal rule, no
   numerical dissipation.
-* Tip load: `*CLOAD` on the nodes of the x = L face with an `*AMPLITUDE`
-  (TIME=TOTAL TIME) that is 1 up to t_release and 0 from t_release + 1e-6 s
-  on.  ccx evaluates loads at increment ends, so this is the same as a step
-  change at t_release.  The total force equals the deck's; it is shared over
+* Tip load: `*CLOAD` on the nodes of the x = L face, one `*AMPLITUDE`
+  (TIME=TOTAL TIME) per loaded dof (ccx allows one amplitude per node and
+  dof) that is the sum of the deck's [[force]] pulses: constant on
+  [start, end), with jumps over 1e-6 s.  ccx evaluates loads at increment
+  ends, so a jump acts as a step change (the lateral pulse is released at
+  t_release = 0.3 s).  The total force equals the deck's; it is shared over
   the face nodes by their tributary face area (below), which for the voxel
   model is also its nodal-mass share.
 * Tributary areas of the nodes of a boundary face of area h^2: C3D8/C3D8I:
@@ -75,7 +80,9 @@ Effects (names and parameters as `gen4d diagnose` reports them)
   U = C10 (I1bar - 3) + (J - 1)^2 / D1 with C10 = mu/2, D1 = 2/K
   (mu = E / (2 (1 + nu)), K = E / (3 (1 - 2 nu))); the deck says stvk.  To
   make the laws differ a large axial pull (6-10 % strain) is added to the
-  tip load.  A St. Venant-Kirchhoff reference run gives the marker RMS
+  tip load, switched on and off in 10 stairs of 0.01 s (extra [[force]]
+  tables in the deck; a single step of that size inverts the tip elements
+  in ccx's first increment).  A St. Venant-Kirchhoff reference run gives the marker RMS
   difference; below 3 noise sigmas the case is marked `"detectable": false`
   and scored as correct when the report says the effect, none or ambiguous.
 * Not generated (ccx cannot produce them in this setting): viscoelasticity,
@@ -377,13 +384,21 @@ def lines_material(name, E, law, plastic):
     return out + ["*DENSITY", fmt(RHO)]
 
 
+def force_at(pulses, dof, t):
+    return sum(f[dof] for t0, t1, f in pulses if t0 <= t < t1)
+
+
+def peak_force(pulses, dof):
+    return max(abs(force_at(pulses, dof, t0)) for t0, _, _ in pulses)
+
+
 def lines_amplitude(name, pulses, dof, scale, end_time):
     """Amplitude of the total tip force in one dof, the sum of the pulses
     (force on [start, end)) over scale.  ccx allows one amplitude per loaded
     dof.  Jumps take 1e-6 s; loads are evaluated at increment ends, so they
     act as step changes."""
     def value(t):
-        return sum(f[dof] for t0, t1, f in pulses if t0 <= t < t1) / scale
+        return force_at(pulses, dof, t) / scale
 
     breaks = sorted({t for t0, t1, _ in pulses for t in (t0, t1) if t > 0.0})
     pts = [(0.0, value(0.0))]
@@ -494,7 +509,7 @@ def write_inp(case, mesh, variant, print_nodes, end_time, clamp_stress=False):
     if eff == "damping":
         out += ["*DAMPING,ALPHA=%s,BETA=%s" % (fmt(p["alpha"]), fmt(p["beta"]))]
     pulses = [(0.0, T_RELEASE, case["force"])] + list(case["pulses"])
-    scale = [max(abs(f[d]) for _, _, f in pulses) for d in range(3)]
+    scale = [peak_force(pulses, d) for d in range(3)]
     for d in range(3):
         if scale[d] > 0.0:
             out += lines_amplitude("LOAD%d" % (d + 1), pulses, d, scale[d], end_time)
