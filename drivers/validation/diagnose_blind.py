@@ -24,10 +24,13 @@ Per case, in DIR/CASE/: `deck.toml`, `recording.csv`
 deleted).  DIR/cases.json lists the cases.  `small` (3 cases: none, damping
 alpha, heterogeneity; a 10x2x2-voxel beam, 1 s) is meant for CI and runs in
 about 25 s per case (C3D20R, one core); `full` (18 cases: 4 none, 2 per
-effect; 20x4x4 voxels, 2 s) takes about 4 minutes per ccx run (5400
-equations, 1000 increments, two Newton iterations each), plus the reference
-runs of plasticity and material_law: about 1.5 hours.  `--only CASE...`
-generates a subset (the parameters do not depend on the subset).
+effect; 20x4x4 voxels, 2 s) takes about 8 CPU minutes per C3D20R ccx run
+(5400 equations, 1000 increments, two Newton iterations each; ccx's spooles
+gains nothing from a second thread here), plus the reference runs of
+plasticity and material_law: about 3 hours on one core.  `--element C3D8I`
+is about 4 times faster.  `--only CASE...` generates a subset (the
+parameters do not depend on the subset), so several subsets can run in
+parallel into separate folders.
 
 CalculiX model (ccx 2.20 behaviour checked by experiment)
 --------------------------------------------------------
