@@ -817,9 +817,13 @@ def print_summary(name, truth, s):
 def cmd_generate(args):
     ccx = find_ccx(args.ccx)
     rng = np.random.default_rng(args.seed)
-    cases = cases_small(rng) if args.set == "small" else cases_full(rng)
-    if args.only:
-        cases = [c for c in cases if c["name"] in args.only]
+    all_cases = cases_small(rng) if args.set == "small" else cases_full(rng)
+    cases = [c for c in all_cases if not args.only or c["name"] in args.only]
+    unknown = set(args.only or []) - {c["name"] for c in all_cases}
+    if unknown:
+        sys.stderr.write("unknown case(s) %s; the %s set has: %s\n" % (
+            ", ".join(sorted(unknown)), args.set, ", ".join(c["name"] for c in all_cases)))
+        return 2
     os.makedirs(args.out, exist_ok=True)
     listed = []
     for case in cases:
@@ -830,10 +834,25 @@ def cmd_generate(args):
             return 1
         print_summary(case["name"], truth, summary)
         listed.append({"name": case["name"], "effect": truth["effect"], "summary": summary})
-    with open(os.path.join(args.out, "cases.json"), "w") as f:
-        json.dump({"set": args.set, "seed": args.seed, "element": args.element,
-                   "cases": listed}, f, indent=2)
+    write_listing(args, [c["name"] for c in all_cases], listed)
     return 0
+
+
+def write_listing(args, order, listed):
+    """DIR/cases.json; cases of an earlier run with the same set, seed and
+    element (e.g. another --only subset) are kept unless regenerated."""
+    path = os.path.join(args.out, "cases.json")
+    head = {"set": args.set, "seed": args.seed, "element": args.element}
+    old = []
+    if os.path.exists(path):
+        with open(path) as f:
+            prev = json.load(f)
+        if all(prev.get(k) == v for k, v in head.items()):
+            old = prev.get("cases", [])
+    by_name = {c["name"]: c for c in old}
+    by_name.update({c["name"]: c for c in listed})
+    with open(path, "w") as f:
+        json.dump(dict(head, cases=[by_name[n] for n in order if n in by_name]), f, indent=2)
 
 
 # ----------------------------------------------------------------------------
