@@ -66,8 +66,11 @@ Effects (names and parameters as `gen4d diagnose` reports them)
   s).
 * plasticity: von Mises with linear isotropic hardening, `*PLASTIC` with the
   points (yield_stress, 0) and (yield_stress + hardening, 1).  An elastic
-  reference run (to t = 0.6 s) gives the peak von Mises stress at the clamp
-  layer's integration points; yield_stress is 60-70 % of it.
+  reference run (to t = 0.6 s) gives the peak von Mises stress at the
+  integration points of the second element layer from the clamp (the first
+  layer's corner stresses are dominated by the clamp singularity: calibrated
+  on them the permanent set of the full beam was only 0.07 mm);
+  yield_stress is 60-70 % of it.
 * heterogeneity: a voxel-aligned box of elements with E times
   stiffness_factor (region in truth.json, reference coordinates).
 * gravity: the deck has gravity 0 while the data has -9.81 z, or the deck has
@@ -488,7 +491,7 @@ def write_inp(case, mesh, variant, print_nodes, end_time, clamp_stress=False):
                 if x0 - 1e-9 < i * h and (i + 1) * h < x1 + 1e-9]
     ebase = [e + 1 for e in range(len(mesh.elements)) if e + 1 not in set(ehet)]
     out += elset("EBASE", ebase)
-    out += elset("ECLAMP", [e + 1 for e, (i, _, _) in enumerate(mesh.element_index) if i == 0])
+    out += elset("ESTRESS", [e + 1 for e, (i, _, _) in enumerate(mesh.element_index) if i == 1])
     plastic = None
     if eff == "plasticity":
         plastic = (p["yield_stress"], p["hardening"])
@@ -531,7 +534,7 @@ def write_inp(case, mesh, variant, print_nodes, end_time, clamp_stress=False):
                     for nid in sorted(tip_area)]
     out += ["*NODE PRINT,NSET=NPRINT,FREQUENCY=1", "U"]
     if clamp_stress:
-        out += ["*EL PRINT,ELSET=ECLAMP,FREQUENCY=2", "S"]
+        out += ["*EL PRINT,ELSET=ESTRESS,FREQUENCY=2", "S"]
     out += ["*END STEP"]
     return "\n".join(out) + "\n"
 
@@ -729,13 +732,14 @@ def motion_summary(t, u_tip):
 
 
 def prepare_plasticity(case, mesh, ccx, nodes):
-    """Yield stress from the peak elastic von Mises stress at the clamp layer."""
+    """Yield stress from the peak elastic von Mises stress near the clamp."""
     inp = write_inp(case, mesh, "reference", nodes, 0.6, clamp_stress=True)
     _, _, s = run_ccx(ccx, inp, case["name"] + " (elastic reference for the yield stress)")
     peak = float(von_mises(s[:, 1:]).max())
     case["params"] = {"yield_stress": case["yield_fraction"] * peak,
                       "hardening": case["hardening_fraction"] * case["E_true"]}
-    case["notes"] = ("yield_stress = %.2f x peak elastic von Mises at the clamp (%.4g Pa)"
+    case["notes"] = ("yield_stress = %.2f x peak elastic von Mises in the second element "
+                     "layer from the clamp (%.4g Pa)"
                      % (case["yield_fraction"], peak))
 
 
