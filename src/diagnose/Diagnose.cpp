@@ -22,6 +22,12 @@ namespace gen4d::diagnose {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+//! Practical significance: an effect must remove this share of the held-out rms. A model of
+//! a recording never matches to the noise (discretisation, unmodelled detail: the
+//! Kennedy-O'Hagan discrepancy), and with thousands of samples a statistically significant
+//! but small gain is often that discrepancy being absorbed; on blind CalculiX data the null
+//! cases' best spurious gain was 8 %, the concealed effects' gains above 60 %.
+constexpr double kMinHeldoutGain = 0.20;
 
 //! Upper 0.1 % point of chi-square with k degrees of freedom (k <= 10), else Wilson-Hilferty.
 double chi2_crit999(int k) {
@@ -711,13 +717,14 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     const double h1 = obs.size() > static_cast<std::size_t>(ntrain) ? c.heldout_rms : c.rms;
     const bool lrt_ok = c.lrt > chi2_crit999(std::max(1, c.k));
     const bool bic_ok = c.delta_bic > 10;
-    const bool held_ok = h1 < 0.95 * h0;
+    const bool held_ok = h1 < (1.0 - kMinHeldoutGain) * h0;
     c.passes = lrt_ok && bic_ok && held_ok;
     c.why = fmt::format(
         "LRT {:.1f} vs {:.1f} (p<0.001: {}), dBIC {:.1f} (>10: {}), held-out rms "
-        "{:.3g} vs {:.3g} ({:+.1f} %, needs <= -5 %: {})",
+        "{:.3g} vs {:.3g} ({:+.1f} %, needs <= -{:g} %: {})",
         c.lrt, chi2_crit999(std::max(1, c.k)), lrt_ok ? "yes" : "no", c.delta_bic,
-        bic_ok ? "yes" : "no", h1, h0, 100 * (h1 / h0 - 1), held_ok ? "yes" : "no");
+        bic_ok ? "yes" : "no", h1, h0, 100 * (h1 / h0 - 1), 100 * kMinHeldoutGain,
+        held_ok ? "yes" : "no");
     log::info("  refit {:<16} {:<12} chi2 {:.4g} -> {:.4g}; {}", c.effect, c.variant, chi2_0,
               c.chi2, c.why);
     variant_fits.push_back(std::move(c));
@@ -967,8 +974,9 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       if (std::abs(x[0]) < 1e-6) continue;
       wins.push_back({w0 + 0.5 * T, x[0], -x[1] / x[0], mo - ms});
     }
-    Signature amp{"amplitude_decay"}, freq{"frequency_shift"}, off{"static_offset"},
-        perm{"permanent_set"}, mode{"mode_shape_change"};
+    Signature amp{"amplitude_decay", false, 0, ""}, freq{"frequency_shift", false, 0, ""},
+        off{"static_offset", false, 0, ""}, perm{"permanent_set", false, 0, ""},
+        mode{"mode_shape_change", false, 0, ""};
     if (wins.size() >= 3) {
       // Slopes by least squares.
       auto slope = [&](auto get) {

@@ -20,7 +20,7 @@ struct DiagnoseOptions {
   std::vector<std::string> effects;  //!< candidates; empty: the whole library
   double holdout = 0.25;             //!< fraction of time blocks and markers held out
   int refit = 3;                     //!< candidates refitted after screening
-  int max_iterations = 12;           //!< TAO iterations per fit
+  int max_iterations = 10;           //!< TAO iterations per fit
 };
 
 struct Channel;

@@ -107,6 +107,9 @@ struct TaoContext {
   long runs = 0;
   //! 1 / f(z0): TAO's bound-activity estimate and tolerances expect an O(1) objective.
   double scale = 1;
+  double f_prev = 0;
+  int stalls = 0;
+  long max_runs = 1000;  //!< forward runs one fit may spend
 };
 
 std::vector<double> to_std(Vec X) {
@@ -171,6 +174,26 @@ void jacobian_at(TaoContext& c, const std::vector<double>& z) {
   std::string zs;
   for (double v : z) zs += fmt::format(" {:.5g}", v);
   log::info("    fit: chi2 {:.6g} at z ={} ({} runs so far)", c.r_cached.squaredNorm(), zs, c.runs);
+}
+
+//! TAO's default test, plus: stop when two successive iterations each lower the objective by
+//! less than 1e-4 of it (the data's noise makes further digits meaningless).
+PetscErrorCode tao_convergence(Tao tao, void* ctx) {
+  PetscCall(TaoDefaultConvergenceTest(tao, nullptr));
+  auto& c = *static_cast<TaoContext*>(ctx);
+  PetscInt its;
+  PetscReal f, gnorm, cnorm, xdiff;
+  TaoConvergedReason reason;
+  PetscCall(TaoGetSolutionStatus(tao, &its, &f, &gnorm, &cnorm, &xdiff, &reason));
+  if (reason != TAO_CONTINUE_ITERATING) return 0;
+  if (c.runs > c.max_runs) {
+    PetscCall(TaoSetConvergedReason(tao, TAO_DIVERGED_MAXFCN));
+    return 0;
+  }
+  c.stalls = its > 0 && c.f_prev - f < 1e-4 * c.f_prev ? c.stalls + 1 : 0;
+  c.f_prev = f;
+  if (c.stalls >= 2) PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_USER));
+  return 0;
 }
 
 //! f = |r|^2 / 2 and g = J^T r, with the Jacobian's columns run in parallel.
@@ -240,6 +263,7 @@ LsqResult least_squares(Evaluator& ev, const LsqProblem& prob, std::vector<doubl
   }
   evaluate_at(c, z0);
   c.scale = 1.0 / std::max(0.5 * c.r_cached.squaredNorm(), 1e-300);
+  c.max_runs = static_cast<long>((n + 2) * (max_iterations + 2));
   Vec x, xl, xu;
   Mat H;
   Tao tao;
@@ -272,6 +296,10 @@ LsqResult least_squares(Evaluator& ev, const LsqProblem& prob, std::vector<doubl
   parallel::check(TaoSetHessian(tao, H, H, tao_hessian, &c), "TaoSetHessian");
   parallel::check(TaoSetTolerances(tao, 1e-10, 1e-5, 1e-4), "TaoSetTolerances");
   parallel::check(TaoSetMaximumIterations(tao, max_iterations), "TaoSetMaximumIterations");
+  // Line-search trial points count too: a fit costs at most this many objective evaluations.
+  parallel::check(TaoSetMaximumFunctionEvaluations(tao, 2 * max_iterations + 4),
+                  "TaoSetMaximumFunctionEvaluations");
+  parallel::check(TaoSetConvergenceTest(tao, tao_convergence, &c), "TaoSetConvergenceTest");
   parallel::check(TaoSetFromOptions(tao), "TaoSetFromOptions");
   parallel::check(TaoSolve(tao), "TaoSolve");
   TaoConvergedReason reason;

@@ -260,7 +260,7 @@ std::string markdown(const Diagnosis& d) {
                        c.variant.empty() ? "" : ":" + c.variant, c.screen_gain);
   }
   m << "\nRules: an effect is kept when its likelihood-ratio statistic passes p < 0.001, its "
-       "BIC improves by more than 10, and it lowers the held-out rms by at least 5 %; the best "
+       "BIC improves by more than 10, and it lowers the held-out rms by at least 20 %; the best "
        "kept effect has the lowest held-out rms; a second kept effect within 2 % of it and "
        "10 in BIC makes the verdict ambiguous.\n\n";
   m << fmt::format("Cost: {} forward runs, {:.1f} s of runs, {:.1f} s wall on {} rank(s).\n\n",

@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# gen4d diagnose end to end: malformed recordings and options fail with exit 2 and a located
+# one-line message, leaving no report; a clean recording from the forward model of the deck
+# itself (no concealed effect) gives a report with every required field.
+# Usage: cli_diagnose.sh GEN4D MPIEXEC SCRATCH
+set -uo pipefail
+gen4d=$1 mpiexec=$2 scratch=$3
+rm -rf "$scratch" && mkdir -p "$scratch" && cd "$scratch" || exit 1
+fail=0
+check() {  # check NAME EXPECTED_RC PATTERN -- command...
+  local name=$1 want=$2 pat=$3
+  shift 4
+  "$@" > out.txt 2>&1
+  local rc=$?
+  if [ "$rc" != "$want" ] || ! grep -q -- "$pat" out.txt; then
+    echo "FAIL $name: exit $rc (want $want), output:"; cat out.txt; fail=1
+  else
+    echo "ok   $name"
+  fi
+}
+cat > beam.toml <<'DECK'
+[simulation]
+name = "cli-diagnose"
+dt = 0.004
+end_time = 0.6
+gravity = [0, 0, -9.81]
+[domain]
+voxel_size = 0.01
+[[geometry]]
+type = "box"
+lo = [0, 0, 0]
+hi = [0.08, 0.02, 0.02]
+[material]
+model = "stvk"
+youngs_modulus = 3e5
+poisson_ratio = 0.3
+density = 1000
+[[fixed]]
+lo = [-1, -1, -1]
+hi = [0.001, 1, 1]
+[[force]]
+lo = [0.075, -1, -1]
+hi = [1, 1, 1]
+force = [0, 0.01, -0.01]
+start = 0
+end = 0.1
+DECK
+hdr="marker,X,Y,Z,t,x,y,z"
+printf '%s\n1,0.08,0.01,0.02,0,0.08,0.01,0.02\n1,0.08,0.01,0.02,0.01,0.08,0.01,0.0199\n' "$hdr" > short.csv
+printf 'marker,X,Y,Z,t,x,y\n1,0.08,0.01,0.02,0,0.08,0.01\n' > missing.csv
+printf '%s\n1,0.08,0.01,0.02,0,0.08,0.01,0.02\n1,0.08,0.01,0.02,0.01,nan,0.01,0.02\n' "$hdr" > nan.csv
+printf '%s\n1,0.08,0.01,0.02,0.02,0.08,0.01,0.02\n1,0.08,0.01,0.02,0.01,0.08,0.01,0.02\n' "$hdr" > backwards.csv
+{ echo "$hdr"; for k in $(seq 0 20); do echo "7,0.5,0.01,0.02,0.0$k,0.5,0.01,0.02"; done; } > outside.csv
+run() { "$mpiexec" -n 2 "$gen4d" diagnose beam.toml "$@"; }
+check missing-column 2 "missing.csv.*column 'z'" -- run --recording missing.csv --out o1
+check nan 2 "nan.csv:3" -- run --recording nan.csv --out o2
+check time-backwards 2 "backwards.csv:3" -- run --recording backwards.csv --out o3
+check outside-body 2 "outside.csv.*marker '7'.*not inside the body" -- run --recording outside.csv --out o4
+check too-few-samples 2 "at least 7 samples" -- run --recording short.csv --out o5
+check unknown-effect 2 "unknown effect 'friction'" -- run --recording short.csv --out o6 --effects friction
+check bad-holdout 2 "holdout" -- run --recording short.csv --out o7 --holdout 0.9
+check missing-recording 2 "recording" -- run --out o8
+for d in o1 o2 o3 o4 o5 o6 o7 o8; do
+  if [ -e "$d/report.json" ]; then echo "FAIL: $d/report.json written for bad input"; fail=1; fi
+done
+exit $fail

@@ -1,0 +1,22 @@
+# gen4d diagnose end to end: bad recordings and options (exit 2, located messages, no report),
+# and the small blind set: three CalculiX recordings (no effect, damping, heterogeneity)
+# diagnosed at 2 ranks and scored against the targets of the full set.
+if(TARGET gen4d)
+  add_test(NAME cli_diagnose
+           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/cli_diagnose.sh $<TARGET_FILE:gen4d>
+                   ${MPIEXEC_EXECUTABLE} ${CMAKE_CURRENT_BINARY_DIR}/scratch/cli_diagnose)
+  set_tests_properties(cli_diagnose PROPERTIES ENVIRONMENT "${GEN4D_TEST_ENV}" PROCESSORS 2
+                       TIMEOUT 600)
+  find_program(GEN4D_CCX ccx)
+  # Debian's python3 (numpy from python3-numpy), not another one earlier on PATH.
+  find_program(GEN4D_PYTHON3 NAMES python3 PATHS /usr/bin NO_DEFAULT_PATH)
+  if(GEN4D_CCX AND GEN4D_PYTHON3)
+    set(blind ${CMAKE_CURRENT_BINARY_DIR}/scratch/diagnose_blind_small)
+    add_test(NAME diagnose_blind_small
+             COMMAND bash -c "rm -rf '${blind}' && '${GEN4D_PYTHON3}' '${CMAKE_SOURCE_DIR}/drivers/validation/diagnose_blind.py' generate --out '${blind}' --set small --ccx '${GEN4D_CCX}' && '${GEN4D_PYTHON3}' '${CMAKE_SOURCE_DIR}/drivers/validation/diagnose_blind.py' score --cases '${blind}' --gen4d '$<TARGET_FILE:gen4d>' --np 2 --json '${blind}/score.json'")
+    set_tests_properties(diagnose_blind_small PROPERTIES ENVIRONMENT "${GEN4D_TEST_ENV}"
+                         PROCESSORS 2 TIMEOUT 1500 LABELS "diagnose")
+  else()
+    message(WARNING "ccx (calculix-ccx) or python3 not found: the blind diagnose test is skipped")
+  endif()
+endif()
