@@ -1,7 +1,6 @@
 #!/usr/bin/env bash
-# gen4d diagnose end to end: malformed recordings and options fail with exit 2 and a located
-# one-line message, leaving no report; a clean recording from the forward model of the deck
-# itself (no concealed effect) gives a report with every required field.
+# gen4d diagnose's input checks: malformed recordings and options fail with exit 2 and a
+# located one-line message, leaving no report (diagnose_blind_small runs it end to end).
 # Usage: cli_diagnose.sh GEN4D MPIEXEC SCRATCH
 set -uo pipefail
 gen4d=$1 mpiexec=$2 scratch=$3
@@ -50,7 +49,7 @@ printf '%s\n1,0.08,0.01,0.02,0,0.08,0.01,0.02\n1,0.08,0.01,0.02,0.01,0.08,0.01,0
 printf 'marker,X,Y,Z,t,x,y\n1,0.08,0.01,0.02,0,0.08,0.01\n' > missing.csv
 printf '%s\n1,0.08,0.01,0.02,0,0.08,0.01,0.02\n1,0.08,0.01,0.02,0.01,nan,0.01,0.02\n' "$hdr" > nan.csv
 printf '%s\n1,0.08,0.01,0.02,0.02,0.08,0.01,0.02\n1,0.08,0.01,0.02,0.01,0.08,0.01,0.02\n' "$hdr" > backwards.csv
-{ echo "$hdr"; for k in $(seq 0 20); do echo "7,0.5,0.01,0.02,0.0$k,0.5,0.01,0.02"; done; } > outside.csv
+{ echo "$hdr"; for k in $(seq 0 20); do echo "7,0.5,0.01,0.02,$((k / 10)).$((k % 10)),0.5,0.01,0.02"; done; } > outside.csv
 run() { "$mpiexec" -n 2 "$gen4d" diagnose beam.toml "$@"; }
 check missing-column 2 "missing.csv.*column 'z'" -- run --recording missing.csv --out o1
 check nan 2 "nan.csv:3" -- run --recording nan.csv --out o2

@@ -177,10 +177,10 @@ void whiteness(const Observations& obs, const Prediction& p, double& p_value, do
 
 //! Dominant angular frequency of the observed motion after the last load event, from the
 //! mean-crossings of the channel component with the largest variance.
-double dominant_omega(const Observations& obs, double t_from) {
+double dominant_omega(const Observations& obs, const std::vector<double>& y, double t_from) {
   std::map<std::pair<int, int>, std::vector<std::pair<double, double>>> ser;
   for (std::size_t i = 0; i < obs.size(); ++i)
-    if (obs.t[i] >= t_from) ser[{obs.channel[i], obs.component[i]}].push_back({obs.t[i], obs.y[i]});
+    if (obs.t[i] >= t_from) ser[{obs.channel[i], obs.component[i]}].push_back({obs.t[i], y[i]});
   double best_var = -1, omega = 2 * kPi;
   for (auto& [key, s] : ser) {
     if (s.size() < 8) continue;
@@ -264,6 +264,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   D.youngs_nominal = nominal.youngs_modulus;
   D.poisson_nominal = nominal.poisson_ratio;
   D.density = nominal.density;
+  Prediction nominal_pred;
   {
     Physics half = nominal;
     half.dt /= 2;
@@ -298,6 +299,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       D.dt_halved = true;
     }
     D.dt = nominal.dt;
+    nominal_pred = p[0];
     D.rms_nominal = rms(obs, p[0], obs.train);
     D.heldout_rms_nominal = rms(obs, p[0], obs.heldout);
     log::info(
@@ -322,8 +324,28 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   pb.step = {1e-3, 2e-3};
   pb.physics = base_physics;
   pb.mask = &obs.train;
-  const LsqResult base = least_squares(
-      ev, pb, {std::log(nominal.youngs_modulus), nominal.poisson_ratio}, opt.max_iterations);
+  // Start: the nominal E, or the E that moves the dominant frequency of the motion after the
+  // last load change onto the recorded one (E ~ omega^2), whichever fits better. Trajectory
+  // least squares has a local minimum per period of phase error; this start avoids them.
+  std::vector<double> z_start = {std::log(nominal.youngs_modulus), nominal.poisson_ratio};
+  {
+    const auto ev0 = model.load_events();
+    const double t_free = ev0.empty() ? 0.0 : ev0.back();
+    const double w_obs = dominant_omega(obs, obs.y, t_free);
+    const double w_sim = dominant_omega(obs, nominal_pred.y, t_free);
+    const double zf = std::clamp(z_start[0] + 2 * std::log(w_obs / w_sim), pb.lo[0], pb.hi[0]);
+    if (std::isfinite(zf) && std::abs(zf - z_start[0]) > 1e-3) {
+      const Prediction pf = ev.run_one(base_physics({zf, z_start[1]}));
+      const double c0 = weighted_residual(obs, nominal_pred, obs.train).squaredNorm();
+      const double c1 = weighted_residual(obs, pf, obs.train).squaredNorm();
+      log::info(
+          "frequency start: recorded {:.4g} rad/s, nominal deck {:.4g} rad/s -> E {:.4g} Pa "
+          "(chi2 {:.4g} vs {:.4g} at the deck's E)",
+          w_obs, w_sim, std::exp(zf), c1, c0);
+      if (pf.ok && c1 < c0) z_start[0] = zf;
+    }
+  }
+  const LsqResult base = least_squares(ev, pb, z_start, opt.max_iterations);
   D.youngs_modulus = std::exp(base.z[0]);
   D.poisson_ratio = base.z[1];
   D.baseline_pred = base.pred;
@@ -444,7 +466,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   ctx.model = &model;
   ctx.base = calibrated;
   const auto events = model.load_events();
-  ctx.omega = dominant_omega(obs, events.empty() ? 0.0 : events.back());
+  ctx.omega = dominant_omega(obs, obs.y, events.empty() ? 0.0 : events.back());
   ctx.max_mises = base.pred.max_mises;
   ctx.max_speed = base.pred.max_speed;
   ctx.total_mass = model.volume() * calibrated.density;
@@ -497,7 +519,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         for (int a = 0; a < 3; ++a) key[a] = (model.voxel_ijk(v)[a] - lo[a]) / b;
         blocks[key].push_back(v);
       }
-      if (blocks.size() <= 24) break;
+      if (blocks.size() <= 40) break;
     }
     std::vector<std::array<long, 3>> keys;
     std::vector<Physics> batch;
@@ -522,34 +544,38 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       D.block_center.push_back(c);
       D.block_gain.push_back(gain[i] / std::max(chi2_0, 1e-300));
     }
-    // Grow a face-connected cluster from the best block while the joint gain rises.
+    // The region: of every box of super-voxels, the one whose joint softening explains the
+    // most of the residual (linearised: the sum of its blocks' directions, best scaling).
+    std::array<long, 3> nbk{0, 0, 0};
+    for (const auto& k : keys)
+      for (int a = 0; a < 3; ++a) nbk[a] = std::max(nbk[a], k[a] + 1);
+    std::map<std::array<long, 3>, std::size_t> index;
+    for (std::size_t i = 0; i < keys.size(); ++i) index[keys[i]] = i;
     std::vector<char> in(keys.size(), 0);
-    const std::size_t seed =
-        static_cast<std::size_t>(std::max_element(gain.begin(), gain.end()) - gain.begin());
-    in[seed] = 1;
-    Eigen::VectorXd col = dp[seed];
-    double g = gain[seed];
-    for (;;) {
-      double best = g;
-      std::size_t add = keys.size();
-      for (std::size_t i = 0; i < keys.size(); ++i) {
-        if (in[i]) continue;
-        bool adj = false;
-        for (std::size_t j = 0; j < keys.size() && !adj; ++j) {
-          if (!in[j]) continue;
-          long dist = 0;
-          for (int a = 0; a < 3; ++a) dist += std::abs(keys[i][a] - keys[j][a]);
-          adj = dist == 1;
-        }
-        if (!adj) continue;
-        const Eigen::VectorXd c2 = col + dp[i];
-        const double gi = std::pow(c2.dot(r0), 2) / std::max(c2.squaredNorm(), 1e-300);
-        if (gi > best * 1.03) best = gi, add = i;
-      }
-      if (add == keys.size()) break;
-      in[add] = 1;
-      col += dp[add];
-      g = best;
+    double g = -1;
+    std::array<long, 6> best_box{0, 0, 0, 1, 1, 1};
+    for (long x0 = 0; x0 < nbk[0]; ++x0)
+      for (long x1 = x0 + 1; x1 <= nbk[0]; ++x1)
+        for (long y0 = 0; y0 < nbk[1]; ++y0)
+          for (long y1 = y0 + 1; y1 <= nbk[1]; ++y1)
+            for (long z0 = 0; z0 < nbk[2]; ++z0)
+              for (long z1 = z0 + 1; z1 <= nbk[2]; ++z1) {
+                Eigen::VectorXd col = Eigen::VectorXd::Zero(r0.size());
+                for (long x = x0; x < x1; ++x)
+                  for (long y = y0; y < y1; ++y)
+                    for (long z = z0; z < z1; ++z) {
+                      const auto it = index.find({x, y, z});
+                      if (it != index.end()) col += dp[it->second];
+                    }
+                const double nn = col.squaredNorm();
+                const double gi = nn > 0 ? std::pow(col.dot(r0), 2) / nn : 0.0;
+                if (gi > g * 1.001) g = gi, best_box = {x0, y0, z0, x1, y1, z1};
+              }
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+      bool inside = true;
+      for (int a = 0; a < 3; ++a)
+        inside = inside && keys[i][a] >= best_box[a] && keys[i][a] < best_box[3 + a];
+      in[i] = inside;
     }
     std::vector<std::size_t> vox;
     for (std::size_t i = 0; i < keys.size(); ++i)
@@ -693,7 +719,51 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     pr.mask = &obs.train;
     std::vector<double> z0 = base.z;
     z0.insert(z0.end(), c.z.begin(), c.z.end());
-    const LsqResult r = least_squares(ev, pr, z0, opt.max_iterations);
+    LsqResult r = least_squares(ev, pr, z0, opt.max_iterations);
+    if (c.effect == "heterogeneity") {
+      // Refine the located box with forward runs: move each face in or out by one voxel,
+      // keep the best move while it lowers chi2 by more than 0.5 %, then refit.
+      const double h = model.h();
+      for (int round = 0; round < 6; ++round) {
+        std::vector<BoxRegion> boxes;
+        for (int a = 0; a < 3; ++a)
+          for (int side = 0; side < 2; ++side)
+            for (int dir = -1; dir <= 1; dir += 2) {
+              BoxRegion b = ctx.region;
+              (side ? b.hi : b.lo)[a] += dir * h;
+              b.lo[a] = std::max(b.lo[a], D.body.lo[a]);
+              b.hi[a] = std::min(b.hi[a], D.body.hi[a]);
+              if (b.hi[a] - b.lo[a] < 0.5 * h) continue;
+              if (std::abs(b.lo[a] - ctx.region.lo[a]) < 1e-12 * h &&
+                  std::abs(b.hi[a] - ctx.region.hi[a]) < 1e-12 * h)
+                continue;
+              boxes.push_back(b);
+            }
+        std::vector<Physics> batch_b;
+        const BoxRegion keep = ctx.region;
+        for (const BoxRegion& b : boxes) {
+          ctx.region = b;
+          batch_b.push_back(pr.physics(r.z));
+        }
+        ctx.region = keep;
+        const auto pb_runs = ev.run(batch_b);
+        double best_chi = r.chi2;
+        int pick = -1;
+        for (std::size_t i = 0; i < boxes.size(); ++i) {
+          if (!pb_runs[i].ok) continue;
+          const double ci = weighted_residual(obs, pb_runs[i], obs.train).squaredNorm();
+          if (ci < best_chi) best_chi = ci, pick = static_cast<int>(i);
+        }
+        if (pick < 0 || best_chi > 0.995 * r.chi2) break;
+        ctx.region = boxes[static_cast<std::size_t>(pick)];
+        r.chi2 = best_chi;
+      }
+      r = least_squares(ev, pr, r.z, opt.max_iterations);
+      log::info("  heterogeneity region refined to [{:.3g} {:.3g} {:.3g}]-[{:.3g} {:.3g} {:.3g}]",
+                ctx.region.lo[0], ctx.region.lo[1], ctx.region.lo[2], ctx.region.hi[0],
+                ctx.region.hi[1], ctx.region.hi[2]);
+      D.located_region = ctx.region;
+    }
     c.fitted = true;
     c.z = r.z;
     c.chi2 = r.chi2;
@@ -904,7 +974,9 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
           // when the probe sat on it).
           zend = zends[idx][j];
           at_bound = zend <= pr.lo[j] || zend >= pr.hi[j];
-          if (!at_bound) zend = best->z[j] + dz * std::sqrt(3.84 / std::max(dchi, 1e-12));
+          // Extrapolate the quadratic profile, at most 3x the probe distance.
+          if (!at_bound)
+            zend = best->z[j] + dz * std::min(3.0, std::sqrt(3.84 / std::max(dchi, 1e-12)));
         } else {
           zend = best->z[j] + dz * std::sqrt(3.84 / dchi);
         }

@@ -200,6 +200,11 @@ PetscErrorCode tao_convergence(Tao tao, void* ctx) {
 PetscErrorCode tao_objective_gradient(Tao, Vec X, PetscReal* f, Vec G, void* ctx) {
   auto& c = *static_cast<TaoContext*>(ctx);
   const std::vector<double> z = to_std(X);
+  if (c.runs >= c.max_runs) {  // budget spent: a zero gradient ends the solve (best kept)
+    *f = c.scale * 0.5 * c.chi2_best;
+    PetscCall(VecSet(G, 0.0));
+    return 0;
+  }
   evaluate_at(c, z);
   if (!(z == c.z_jac && c.J.rows() == c.r_cached.size())) jacobian_at(c, z);
   *f = c.scale * 0.5 * c.r_cached.squaredNorm();
@@ -214,6 +219,10 @@ PetscErrorCode tao_objective_gradient(Tao, Vec X, PetscReal* f, Vec G, void* ctx
 //! Objective alone (line-search trial points): one forward run.
 PetscErrorCode tao_objective(Tao, Vec X, PetscReal* f, void* ctx) {
   auto& c = *static_cast<TaoContext*>(ctx);
+  if (c.runs >= c.max_runs) {
+    *f = c.scale * 0.5 * c.chi2_best;
+    return 0;
+  }
   evaluate_at(c, to_std(X));
   *f = c.scale * 0.5 * c.r_cached.squaredNorm();
   return 0;
@@ -223,7 +232,7 @@ PetscErrorCode tao_objective(Tao, Vec X, PetscReal* f, void* ctx) {
 PetscErrorCode tao_hessian(Tao, Vec X, Mat H, Mat, void* ctx) {
   auto& c = *static_cast<TaoContext*>(ctx);
   const std::vector<double> z = to_std(X);
-  if (!(z == c.z_jac && c.J.rows() == c.r_cached.size())) {
+  if (c.runs < c.max_runs && !(z == c.z_jac && c.J.rows() == c.r_cached.size())) {
     evaluate_at(c, z);
     jacobian_at(c, z);
   }
