@@ -679,6 +679,29 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     log::info("  screen {:<16} {:<12} linearised chi2 drop {:.4g} ({:.1f} %)", c.effect, c.variant,
               c.screen_gain, 100 * c.screen_gain / chi2_0);
 
+  // The joint problem of the baseline (log E, nu) and one effect variant's parameters.
+  auto effect_problem = [&](const Effect& e, const std::string& variant) {
+    const auto specs = e.params(ctx, variant);
+    LsqProblem pr;
+    pr.lo = pb.lo;
+    pr.hi = pb.hi;
+    pr.step = pb.step;
+    for (const auto& s : specs) {
+      pr.lo.push_back(to_z(s, s.lo));
+      pr.hi.push_back(to_z(s, s.hi));
+      pr.step.push_back(s.log ? 1e-2 : 1e-2 * (s.hi - s.lo) / 10);
+    }
+    pr.physics = [&e, &ctx, &base_physics, specs, variant](const std::vector<double>& z) {
+      Physics p = base_physics(z);
+      std::vector<double> nat;
+      for (std::size_t q = 0; q < specs.size(); ++q) nat.push_back(from_z(specs[q], z[2 + q]));
+      e.apply(variant, nat, ctx, p);
+      return p;
+    };
+    pr.mask = &obs.train;
+    return pr;
+  };
+
   // 5. Refit the best few jointly with the baseline; score on held-out data.
   const double lnN = std::log(std::max(N, 2.0));
   // The best few effects (by their best variant) are refitted, each variant of them that
@@ -699,24 +722,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     if (c.screen_gain < 0.9 * top) continue;
     const Effect& e = find_effect(c.effect);
     const auto specs = e.params(ctx, c.variant);
-    LsqProblem pr;
-    pr.lo = pb.lo;
-    pr.hi = pb.hi;
-    pr.step = pb.step;
-    for (const auto& s : specs) {
-      pr.lo.push_back(to_z(s, s.lo));
-      pr.hi.push_back(to_z(s, s.hi));
-      pr.step.push_back(s.log ? 1e-2 : 1e-2 * (s.hi - s.lo) / 10);
-    }
-    const std::string variant = c.variant;
-    pr.physics = [&, specs, variant](const std::vector<double>& z) {
-      Physics p = base_physics(z);
-      std::vector<double> nat;
-      for (std::size_t q = 0; q < specs.size(); ++q) nat.push_back(from_z(specs[q], z[2 + q]));
-      e.apply(variant, nat, ctx, p);
-      return p;
-    };
-    pr.mask = &obs.train;
+    const LsqProblem pr = effect_problem(e, c.variant);
     std::vector<double> z0 = base.z;
     z0.insert(z0.end(), c.z.begin(), c.z.end());
     LsqResult r = least_squares(ev, pr, z0, opt.max_iterations);
@@ -854,11 +860,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       const Effect& e1 = find_effect(best->effect);
       const Effect& e2 = find_effect(second->effect);
       auto phys_of = [&](const Effect& e, const Candidate& c, double scale) {
-        Physics p = base_physics(c.z);
-        std::vector<double> nat;
-        const auto specs = e.params(ctx, c.variant);
-        for (std::size_t q = 0; q < specs.size(); ++q) nat.push_back(from_z(specs[q], c.z[2 + q]));
-        e.apply(c.variant, nat, ctx, p);
+        Physics p = effect_problem(e, c.variant).physics(c.z);
         p.load_scale = scale;
         return p;
       };
@@ -888,27 +890,11 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   if (best && !best->params.empty()) {
     const Effect& e = find_effect(best->effect);
     const auto specs = e.params(ctx, best->variant);
-    std::vector<ParamSpec> all_specs = base_specs;
-    all_specs.insert(all_specs.end(), specs.begin(), specs.end());
-    LsqProblem pr;
-    pr.lo = pb.lo;
-    pr.hi = pb.hi;
-    pr.step = pb.step;
-    for (const auto& s : specs) {
-      pr.lo.push_back(to_z(s, s.lo));
-      pr.hi.push_back(to_z(s, s.hi));
-      pr.step.push_back(s.log ? 1e-2 : 1e-2 * (s.hi - s.lo) / 10);
-    }
+    const LsqProblem pr = effect_problem(e, best->variant);
     // Jacobian at the optimum.
     const std::size_t np = best->z.size();
     std::vector<Physics> jb;
-    auto phys = [&](const std::vector<double>& z) {
-      Physics p = base_physics(z);
-      std::vector<double> nat;
-      for (std::size_t q = 0; q < specs.size(); ++q) nat.push_back(from_z(specs[q], z[2 + q]));
-      e.apply(best->variant, nat, ctx, p);
-      return p;
-    };
+    const auto& phys = pr.physics;
     std::vector<double> hstep(np);
     for (std::size_t j = 0; j < np; ++j) {
       std::vector<double> z = best->z;
