@@ -1,8 +1,8 @@
 # gen4d diagnose end to end: bad recordings and options (exit 2, located messages, no report),
 # and the small blind set: CalculiX recordings diagnosed at 2 ranks and scored against the
-# targets of the full set. The set's heterogeneity case is left out: diagnose currently
-# attributes it to gravity (a known failure, reported on the issue); the null and damping
-# cases are checked.
+# targets of the full set (printed), then checked by check_blind_small.py. The set's
+# heterogeneity case is left out: diagnose currently attributes it to gravity (a known
+# failure, reported on the issue); the null and damping cases are checked.
 if(TARGET gen4d)
   add_test(NAME cli_diagnose
            COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/cli_diagnose.sh $<TARGET_FILE:gen4d>
@@ -15,7 +15,7 @@ if(TARGET gen4d)
   if(GEN4D_CCX AND GEN4D_PYTHON3)
     set(blind ${CMAKE_CURRENT_BINARY_DIR}/scratch/diagnose_blind_small)
     add_test(NAME diagnose_blind_small
-             COMMAND bash -c "rm -rf '${blind}' && '${GEN4D_PYTHON3}' '${CMAKE_SOURCE_DIR}/drivers/validation/diagnose_blind.py' generate --out '${blind}' --set small --only none-1 damping-alpha --ccx '${GEN4D_CCX}' && '${GEN4D_PYTHON3}' '${CMAKE_SOURCE_DIR}/drivers/validation/diagnose_blind.py' score --cases '${blind}' --gen4d '$<TARGET_FILE:gen4d>' --np 2 --json '${blind}/score.json'")
+             COMMAND bash -c "rm -rf '${blind}' && '${GEN4D_PYTHON3}' '${CMAKE_SOURCE_DIR}/drivers/validation/diagnose_blind.py' generate --out '${blind}' --set small --only none-1 damping-alpha --ccx '${GEN4D_CCX}' && '${GEN4D_PYTHON3}' '${CMAKE_SOURCE_DIR}/drivers/validation/diagnose_blind.py' score --cases '${blind}' --gen4d '$<TARGET_FILE:gen4d>' --np 2 --json '${blind}/score.json' || true && '${GEN4D_PYTHON3}' '${CMAKE_CURRENT_SOURCE_DIR}/check_blind_small.py' '${blind}'")
     set_tests_properties(diagnose_blind_small PROPERTIES ENVIRONMENT "${GEN4D_TEST_ENV}"
                          PROCESSORS 2 TIMEOUT 1500 LABELS "diagnose")
   else()

@@ -853,8 +853,15 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     D.youngs_modulus = best->youngs_modulus;
     D.poisson_ratio = best->poisson_ratio;
     if (D.effect == "heterogeneity") D.has_region = true, D.region = ctx.region;
-    if (second && second->passes && score(*second) < 1.02 * score(*best) &&
-        std::abs(second->delta_bic - best->delta_bic) < 10) {
+    // Ambiguous when the runner-up also passes and its held-out chi-square is within two
+    // standard deviations (2 sqrt(2 n)) of the winner's: the data cannot tell them apart.
+    const double n_ho = std::max(1.0, static_cast<double>(obs.size()) - N);
+    auto chi2_ho = [&](const Candidate& c) {
+      const double r = score(c) / D.noise_position;
+      return n_ho * r * r;
+    };
+    if (second && second->passes && chi2_ho(*second) - chi2_ho(*best) < 2 * std::sqrt(2 * n_ho)) {
+      D.contenders = {best->effect, second->effect};
       D.verdict = "ambiguous";
       // An experiment that separates them: scale the deck's load, see where they differ most.
       const Effect& e1 = find_effect(best->effect);

@@ -19,7 +19,7 @@ struct DiagnoseOptions {
   std::string out_dir;
   std::vector<std::string> effects;  //!< candidates; empty: the whole library
   double holdout = 0.25;             //!< fraction of time blocks and markers held out
-  int refit = 5;                     //!< candidates refitted after screening
+  int refit = 3;                     //!< candidates refitted after screening
   int max_iterations = 10;           //!< TAO iterations per fit
 };
 

@@ -167,6 +167,10 @@ std::string json(const Diagnosis& d) {
     cs += "}";
   }
   kv("candidates", cs + "]");
+  std::string ct = "[";
+  for (std::size_t i = 0; i < d.contenders.size(); ++i)
+    ct += (i ? ", " : "") + jstr(d.contenders[i]);
+  kv("contenders", ct + "]");
   kv("ambiguity_experiment",
      d.ambiguity_experiment.empty() ? "null" : jstr(d.ambiguity_experiment));
   kv("unexplained_misfit", d.unexplained.empty() ? "null" : jstr(d.unexplained));
@@ -261,8 +265,9 @@ std::string markdown(const Diagnosis& d) {
   }
   m << "\nRules: an effect is kept when its likelihood-ratio statistic passes p < 0.001, its "
        "BIC improves by more than 10, and it lowers the held-out rms by at least 20 %; the best "
-       "kept effect has the lowest held-out rms; a second kept effect within 2 % of it and "
-       "10 in BIC makes the verdict ambiguous.\n\n";
+       "kept effect has the lowest held-out rms; a second kept effect whose held-out "
+       "chi-square is within two standard deviations (2 sqrt(2 n)) makes the verdict "
+       "ambiguous.\n\n";
   m << fmt::format("Cost: {} forward runs, {:.1f} s of runs, {:.1f} s wall on {} rank(s).\n\n",
                    d.runs, d.run_seconds, d.wall_seconds, d.ranks);
   m << "Plots: residual_time.png, marker_error.png, trajectories.png"

@@ -73,6 +73,7 @@ struct Diagnosis {
   std::vector<Signature> signatures;
   std::vector<Candidate> candidates;  //!< screened (gain) and refitted ones
   std::string ambiguity_experiment;
+  std::vector<std::string> contenders;  //!< the two effects an ambiguous verdict cannot separate
   std::string unexplained;
   long runs = 0;
   double wall_seconds = 0, run_seconds = 0;
