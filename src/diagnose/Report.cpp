@@ -6,12 +6,12 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <sstream>
 
 #include "core/Error.hpp"
 #include "io/Plot.hpp"
+#include "io/Xdmf.hpp"
 
 namespace gen4d::diagnose {
 
@@ -73,20 +73,6 @@ std::string jparams(const std::vector<ParamEstimate>& ps, const std::string& var
     s += "}";
   }
   return s + "}";
-}
-
-//! Writes text to path through a temporary file and a rename.
-void write_atomic(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary);
-    if (!f) throw RuntimeError("cannot write " + tmp);
-    f << text;
-    if (!f.flush()) throw RuntimeError("cannot write " + tmp);
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw RuntimeError("cannot rename " + tmp + " to " + path + ": " + ec.message());
 }
 
 std::string json(const Diagnosis& d) {
@@ -415,11 +401,11 @@ void write_reports(const std::string& dir, const Diagnosis& d, const Observation
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) throw RuntimeError("cannot create output folder " + dir + ": " + ec.message());
-  write_atomic(dir + "/fit.csv", fit_csv(d, obs));
+  io::write_text_atomically(dir + "/fit.csv", fit_csv(d, obs));
   plots(dir, d, obs);
-  write_atomic(dir + "/report.md", markdown(d));
+  io::write_text_atomically(dir + "/report.md", markdown(d));
   // report.json last: its presence marks a complete diagnosis.
-  write_atomic(dir + "/report.json", json(d));
+  io::write_text_atomically(dir + "/report.json", json(d));
 }
 
 }  // namespace gen4d::diagnose
