@@ -206,7 +206,9 @@ std::string markdown(const Diagnosis& d) {
   m << fmt::format(
       "Noise estimate (local cubic fits of the recording): {:.3g} m. Calibrated E = {:.4g} Pa "
       "(deck {:.4g}), nu = {:.3f} (deck {:.3f}); density kept at {:g} kg/m^3, so E/rho = {:.4g} "
-      "m^2/s^2 is what the data fix.\n\n",
+      "m^2/s^2 is what the data fix. These are effective values of the voxel model: trilinear "
+      "voxels a few to the thickness are stiffer in bending than the continuum, and E, nu "
+      "absorb that.\n\n",
       d.noise_position, d.youngs_modulus, d.youngs_nominal, d.poisson_ratio, d.poisson_nominal,
       d.density, d.youngs_modulus / d.density);
   m << fmt::format(
