@@ -132,10 +132,6 @@ Observations build_observations(const VoxelModel& model, const Recording& rec, d
   return obs;
 }
 
-std::vector<char> all_mask(const Observations& obs) {
-  return std::vector<char>(obs.size(), 1);
-}
-
 //! Internal coordinate of a parameter value and back.
 double to_z(const ParamSpec& s, double v) {
   return s.log ? std::log(std::max(v, 1e-300)) : v;
@@ -249,7 +245,6 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   const Observations obs =
       build_observations(model, rec, opt.holdout, D.noise_position, D.noise_acceleration);
   Evaluator ev(comm, model, obs);
-  const std::vector<char> all = all_mask(obs);
   long ntrain = 0;
   for (char c : obs.train) ntrain += c;
   log::info("gen4d diagnose: {} channels, {} values ({} fitted, {} held out); noise {:.3g} m{}",
@@ -997,18 +992,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     struct Win {
       double t, alpha, shift, offset;
     };
-    std::map<int, std::vector<Win>> per_comp;
-    double best_var = -1;
-    int comp = 0;
-    for (int d = 0; d < 3; ++d) {
-      std::vector<double> y;
-      for (std::size_t i = 0; i < obs.size(); ++i)
-        if (obs.channel[i] == worst && obs.component[i] == d) y.push_back(obs.y[i]);
-      double m = std::accumulate(y.begin(), y.end(), 0.0) / std::max<std::size_t>(1, y.size()),
-             v = 0;
-      for (double x : y) v += (x - m) * (x - m);
-      if (v > best_var) best_var = v, comp = d;
-    }
+    const int comp = main_component(obs, worst);
     std::vector<double> ts, yo, ys;
     for (std::size_t i = 0; i < obs.size(); ++i)
       if (obs.channel[i] == worst && obs.component[i] == comp) {

@@ -76,6 +76,22 @@ Eigen::VectorXd weighted_residual(const Observations& obs, const Prediction& p,
   return r;
 }
 
+int main_component(const Observations& obs, int channel) {
+  double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0}, n[3] = {0, 0, 0};
+  for (std::size_t i = 0; i < obs.size(); ++i) {
+    if (obs.channel[i] != channel) continue;
+    const int k = obs.component[i];
+    s[k] += obs.y[i], s2[k] += obs.y[i] * obs.y[i], n[k] += 1;
+  }
+  int best = 0;
+  double best_var = -1;
+  for (int k = 0; k < 3; ++k) {
+    const double var = n[k] > 0 ? s2[k] / n[k] - (s[k] / n[k]) * (s[k] / n[k]) : 0.0;
+    if (var > best_var) best_var = var, best = k;
+  }
+  return best;
+}
+
 double rms(const Observations& obs, const Prediction& p, const std::vector<char>& mask) {
   double s = 0;
   long n = 0;

@@ -60,6 +60,8 @@ class Evaluator {
 //! run gives a large constant residual so optimisers step back.
 Eigen::VectorXd weighted_residual(const Observations& obs, const Prediction& p,
                                   const std::vector<char>& mask);
+//! The component (0, 1, 2) of a channel whose observed values vary most.
+int main_component(const Observations& obs, int channel);
 //! Root mean square of (pred - obs) in metres / m s^-2 over mask.
 double rms(const Observations& obs, const Prediction& p, const std::vector<char>& mask);
 

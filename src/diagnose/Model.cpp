@@ -668,18 +668,14 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
         for (std::size_t p = 0; p < planes.size(); ++p) {
           if (!active[n * planes.size() + p]) continue;
           const Plane& pl = planes[p];
-          double gap = 0, vn_n = 0;
-          for (int d = 0; d < 3; ++d) {
-            gap += (X_[n][d] + u1[3 * n + d] - pl.p[d]) * pl.n[d];
-            vn_n += vn[d] * pl.n[d];
-          }
+          double gap = 0;
+          for (int d = 0; d < 3; ++d) gap += (X_[n][d] + u1[3 * n + d] - pl.p[d]) * pl.n[d];
           const double fn = -k_pen * gap;  // >= 0, along n
           double vt[3], vt2 = 0, v0n = 0;
           for (int d = 0; d < 3; ++d) v0n += v0[d] * pl.n[d];
           for (int d = 0; d < 3; ++d) vt[d] = v0[d] - v0n * pl.n[d], vt2 += vt[d] * vt[d];
           const double vt_norm = std::sqrt(vt2);
           const double ft = vt_norm > 0 ? std::min(pl.mu * fn, m * vt_norm / dt) / vt_norm : 0.0;
-          (void)vn_n;
           for (int d = 0; d < 3; ++d) R[i0 + d] -= fn * pl.n[d] - ft * vt[d];
         }
       }

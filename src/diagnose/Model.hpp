@@ -65,7 +65,6 @@ struct Trace {
   std::string failure;   //!< why, for the log
   double max_speed = 0;  //!< over nodes and steps, m/s
   double max_mises = 0;  //!< largest von Mises (Kirchhoff) stress seen, Pa
-  double energy_in = 0;  //!< work of the applied loads (J), for reports
   long steps = 0;
   long newton_iterations = 0;
   long factorizations = 0;

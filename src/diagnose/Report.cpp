@@ -352,18 +352,7 @@ void plots(const std::string& dir, const Diagnosis& d, const Observations& obs) 
     for (const std::string& id : d.markers) {
       const auto it = std::find(obs.ids.begin(), obs.ids.end(), id);
       const int c = static_cast<int>(it - obs.ids.begin());
-      // Main component: largest observed variance.
-      int comp = 0;
-      double best = -1;
-      for (int k = 0; k < 3; ++k) {
-        double m = 0, v = 0, n = 0;
-        for (std::size_t i = 0; i < obs.size(); ++i)
-          if (obs.channel[i] == c && obs.component[i] == k) m += obs.y[i], n += 1;
-        m /= std::max(n, 1.0);
-        for (std::size_t i = 0; i < obs.size(); ++i)
-          if (obs.channel[i] == c && obs.component[i] == k) v += std::pow(obs.y[i] - m, 2);
-        if (v > best) best = v, comp = k;
-      }
+      const int comp = main_component(obs, c);
       io::LineChart ch;
       ch.title =
           fmt::format("{} '{}', {}",
