@@ -5,13 +5,18 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <stdexcept>
 
 #include "core/Error.hpp"
 #include "elastogen/HexStencil.hpp"
 #include "geometry/Shape.hpp"
+#include "materials/FixedCorotated.hpp"
+#include "materials/LinearElastic.hpp"
+#include "materials/NeoHookean.hpp"
 #include "materials/Registry.hpp"
+#include "materials/StVK.hpp"
 #include "mpm/Material.hpp"
 
 namespace gen4d::diagnose {
@@ -85,6 +90,21 @@ bool invert(const double A[9], double R[9]) {
   R[8] = (A[0] * A[4] - A[1] * A[3]) * id;
   return true;
 }
+
+//! Adds the lifetime of the scope to a seconds counter.
+class PhaseTimer {
+ public:
+  explicit PhaseTimer(double& total) : total_(total), t0_(std::chrono::steady_clock::now()) {}
+  ~PhaseTimer() {
+    total_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+  }
+  PhaseTimer(const PhaseTimer&) = delete;
+  PhaseTimer& operator=(const PhaseTimer&) = delete;
+
+ private:
+  double& total_;
+  std::chrono::steady_clock::time_point t0_;
+};
 
 struct Plane {
   Vec3d p, n;  // n unit
@@ -311,7 +331,9 @@ std::vector<double> VoxelModel::load_events() const {
   return e;
 }
 
-Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req) const {
+template <class Law>
+Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& req,
+                          const Law& law) const {
   Trace tr;
   const std::size_t nn = X_.size();
   const bool clamp_springs = std::isfinite(ph.clamp_stiffness);
@@ -387,6 +409,7 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
   solver.analyzePattern(K0 + diagA);
   std::vector<char> active(nn * std::max<std::size_t>(planes.size(), 1), 0);
   auto factor = [&] {
+    PhaseTimer timer(tr.time_factor);
     SpMat A = diagA + Kt + (cv * ph.rayleigh_beta) * K0;
     for (std::size_t n = 0; n < nn; ++n)
       for (std::size_t p = 0; p < planes.size(); ++p)
@@ -405,7 +428,6 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
   }
 
   // Constitutive state per Gauss point.
-  const auto law = materials::find_material(ph.law).build(ph.youngs_modulus, ph.poisson_ratio);
   const bool plastic = std::isfinite(ph.yield_stress);
   const bool visco = ph.prony_g > 0;
   std::unique_ptr<mpm::Material> vm;
@@ -439,9 +461,33 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
   const HexStencil& S = HexStencil::get();
   double step_max_mises = 0;
 
+  // Stress of the elastic law, and of the plastic return map from the state at the start of
+  // the step (Gauss point g): P, the Kirchhoff stress, the trial state and Fp^-1.
+  auto elastic_stress = [&](const double F[9], double P[9]) {
+    materials::Mat3 Fm;
+    std::copy(F, F + 9, Fm.a);
+    const materials::Mat3 Pm = law.pk1(Fm);
+    std::copy(Pm.a, Pm.a + 9, P);
+  };
+  auto plastic_stress = [&](std::size_t g, const double F[9], double P[9], double tau[9],
+                            double* state, double* fp_inv_out) -> bool {
+    double Fe[9], Finv[9];
+    mat_mul(F, &fp_inv[9 * g], Fe);
+    std::copy(&pstate[mpm::kStateSize * g], &pstate[mpm::kStateSize * g] + mpm::kStateSize, state);
+    vm->update(1, Fe, state, tau, dt);
+    if (!invert(F, Finv)) return false;
+    if (fp_inv_out) mat_mul(Finv, Fe, fp_inv_out);
+    for (int i = 0; i < 3; ++i)  // P = tau F^-T
+      for (int j = 0; j < 3; ++j)
+        P[3 * i + j] = tau[3 * i] * Finv[3 * j] + tau[3 * i + 1] * Finv[3 * j + 1] +
+                       tau[3 * i + 2] * Finv[3 * j + 2];
+    return true;
+  };
+
   // Internal force of the state u1 into f (3 per node); trial constitutive states.
   std::vector<double> fint(3 * nn);
   auto internal = [&]() -> bool {
+    PhaseTimer timer(tr.time_internal);
     std::fill(fint.begin(), fint.end(), 0.0);
     step_max_mises = 0;
     for (std::size_t vx = 0; vx < nv; ++vx) {
@@ -455,23 +501,10 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
         double F[9], P[9], tau[9];
         elastogen::deformation_gradient(S, q, xe, 1.0 / h, F);
         if (plastic) {
-          double Fe[9], Finv[9];
-          mat_mul(F, &fp_inv[9 * g], Fe);
-          std::copy(&pstate[mpm::kStateSize * g], &pstate[mpm::kStateSize * g] + mpm::kStateSize,
-                    &pstate_new[mpm::kStateSize * g]);
-          vm->update(1, Fe, &pstate_new[mpm::kStateSize * g], tau, dt);
-          if (!invert(F, Finv)) return false;
-          mat_mul(Finv, Fe, &fp_inv_new[9 * g]);
-          // P = tau F^-T
-          for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j)
-              P[3 * i + j] = tau[3 * i] * Finv[3 * j] + tau[3 * i + 1] * Finv[3 * j + 1] +
-                             tau[3 * i + 2] * Finv[3 * j + 2];
+          if (!plastic_stress(g, F, P, tau, &pstate_new[mpm::kStateSize * g], &fp_inv_new[9 * g]))
+            return false;
         } else {
-          materials::Mat3 Fm;
-          std::copy(F, F + 9, Fm.a);
-          const materials::Mat3 Pm = law.pk1(Fm);
-          std::copy(Pm.a, Pm.a + 9, P);
+          elastic_stress(F, P);
         }
         if (visco) {
           // Relaxing part q: dq/dt = (g P_el - q) / tau (backward Euler); stress P_el - q.
@@ -499,9 +532,11 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
     return true;
   };
 
-  // Tangent stiffness at u1: dP/dF of the elastic law by central differences per Gauss point
-  // (symmetrised), scaled like the stress (region factor, relaxed viscous part).
+  // Tangent stiffness at u1: dP/dF of the law (with plasticity: of the return map from the
+  // step's start) by central differences per Gauss point (symmetrised), scaled like the stress
+  // (region factor, relaxed viscous part).
   auto tangent = [&] {
+    PhaseTimer timer(tr.time_tangent);
     std::vector<Eigen::Triplet<double>> tk;
     tk.reserve(nv * 576);
     const double vscale = visco ? 1.0 - ph.prony_g * rv / (1.0 + rv) : 1.0;
@@ -516,14 +551,22 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
         double F[9], D[9][9];
         elastogen::deformation_gradient(S, q, xe, 1.0 / h, F);
         const double eps = 1e-6;
+        const std::size_t g = 8 * vx + static_cast<std::size_t>(q);
         for (int j = 0; j < 9; ++j) {
-          materials::Mat3 Fp, Fm;
-          std::copy(F, F + 9, Fp.a);
-          std::copy(F, F + 9, Fm.a);
-          Fp.a[j] += eps;
-          Fm.a[j] -= eps;
-          const materials::Mat3 Pp = law.pk1(Fp), Pm = law.pk1(Fm);
-          for (int i = 0; i < 9; ++i) D[i][j] = (Pp.a[i] - Pm.a[i]) / (2 * eps);
+          double Fp[9], Fm[9], Pp[9] = {}, Pm[9] = {};
+          std::copy(F, F + 9, Fp);
+          std::copy(F, F + 9, Fm);
+          Fp[j] += eps;
+          Fm[j] -= eps;
+          if (plastic) {  // the consistent tangent of the return map
+            double tau[9], st[mpm::kStateSize];
+            plastic_stress(g, Fp, Pp, tau, st, nullptr);
+            plastic_stress(g, Fm, Pm, tau, st, nullptr);
+          } else {
+            elastic_stress(Fp, Pp);
+            elastic_stress(Fm, Pm);
+          }
+          for (int i = 0; i < 9; ++i) D[i][j] = (Pp[i] - Pm[i]) / (2 * eps);
         }
         const double w = h / 8.0 * vfac[vx] * vscale;  // h^3 / 8 * (1/h)^2
         // T[l][a][b][e] = sum_c dN_l,c Dsym[ac][be]; Ke[la][mb] += w sum_e T dN_m,e
@@ -679,7 +722,10 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
           for (int d = 0; d < 3; ++d) R[i0 + d] -= fn * pl.n[d] - ft * vt[d];
         }
       }
-      du = solver.solve(-R);
+      {
+        PhaseTimer timer(tr.time_solve);
+        du = solver.solve(-R);
+      }
       double dmax = 0;
       for (std::size_t n = 0; n < nn; ++n)
         if (dof[n] >= 0)
@@ -756,6 +802,31 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
     }
   }
   return tr;
+}
+
+namespace {
+
+//! A law known only by its registry entry (called through std::function).
+struct RegistryLaw {
+  materials::MaterialInstance m;
+  materials::Mat3 pk1(const materials::Mat3& F) const { return m.pk1(F); }
+};
+
+}  // namespace
+
+Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req) const {
+  const double E = ph.youngs_modulus, nu = ph.poisson_ratio;
+  RegistryLaw generic{materials::find_material(ph.law).build(E, nu)};  // validates E, nu
+  // The common laws get their own instantiation of the element loops (inlined stress).
+  if (ph.law == materials::StVK::name)
+    return run_law(ph, req, materials::StVK::from_young_poisson(E, nu));
+  if (ph.law == materials::NeoHookean::name)
+    return run_law(ph, req, materials::NeoHookean::from_young_poisson(E, nu));
+  if (ph.law == materials::FixedCorotated::name)
+    return run_law(ph, req, materials::FixedCorotated::from_young_poisson(E, nu));
+  if (ph.law == materials::LinearElastic::name)
+    return run_law(ph, req, materials::LinearElastic::from_young_poisson(E, nu));
+  return run_law(ph, req, generic);
 }
 
 }  // namespace gen4d::diagnose

@@ -68,6 +68,8 @@ struct Trace {
   long steps = 0;
   long newton_iterations = 0;
   long factorizations = 0;
+  //! Wall seconds by phase: internal forces, tangent assembly, factorization, back-substitution.
+  double time_internal = 0, time_tangent = 0, time_factor = 0, time_solve = 0;
 };
 
 class VoxelModel {
@@ -104,6 +106,10 @@ class VoxelModel {
   Trace run(const Physics& phys, const std::vector<ChannelRequest>& req) const;
 
  private:
+  //! run() with the hyperelastic law as a compile-time type (pk1(Mat3) -> Mat3).
+  template <class Law>
+  Trace run_law(const Physics& phys, const std::vector<ChannelRequest>& req, const Law& law) const;
+
   Config cfg_;
   double h_ = 0;
   Vec3d origin_{};

@@ -1,0 +1,129 @@
+// Speed of the `gen4d diagnose` forward model (one serial run of VoxelModel), printed as JSON.
+// The scene is the acceptance case of diagnose: a 20x4x4-voxel cantilever (h = 1 cm, StVK,
+// E = 5e5 Pa), clamped at x = 0, under gravity, a tip pulse released at 0.3 s, 2 s at
+// dt = 2 ms, 10 sampled surface points. Runs, each timed as the best of --repeat:
+//   baseline   the linear law at a load 1e-4 of the case's: every step converges in one
+//              Newton iteration on the rest stiffness, so this is the floor of a step's cost
+//              (one internal-force pass and one back-substitution);
+//   nominal    the case itself (8 cm tip motion: large rotations, a refreshed tangent);
+//   damping    with Rayleigh stiffness damping (beta = 2e-3 s), as the fits run it;
+//   plastic    with von Mises plasticity (yield 1.5 kPa), the slowest law.
+// Per run: wall seconds, steps, Newton iterations per step, factorizations, and the split
+// over phases (internal forces, tangent, factorization, back-substitution, rest).
+#include <chrono>
+#include <cstdio>
+#include <string>
+
+#include "core/Deck.hpp"
+#include "diagnose/Model.hpp"
+#include "validation/DriverCommon.hpp"
+
+namespace gen4d {
+namespace {
+
+const char* kDeck = R"(
+[simulation]
+dt = 0.002
+end_time = 2
+gravity = [0, 0, -9.81]
+[domain]
+voxel_size = 0.01
+padding = 1
+[[geometry]]
+type = "box"
+lo = [0, 0, 0]
+hi = [0.2, 0.04, 0.04]
+[material]
+model = "stvk"
+youngs_modulus = 5e5
+poisson_ratio = 0.3
+density = 1000
+[[fixed]]
+lo = [-1, -1, -1]
+hi = [0.001, 1, 1]
+[[force]]
+lo = [0.195, -1, -1]
+hi = [1.2, 1, 1]
+force = [0, -0.72, -0.48]
+start = 0
+end = 0.3
+)";
+
+struct Result {
+  double wall = 1e300;
+  diagnose::Trace trace;
+};
+
+Result time_run(const char* name, const diagnose::VoxelModel& model, const diagnose::Physics& ph,
+                const std::vector<diagnose::ChannelRequest>& req, int repeat) {
+  Result r;
+  for (int k = 0; k < repeat; ++k) {
+    const auto t0 = std::chrono::steady_clock::now();
+    diagnose::Trace tr = model.run(ph, req);
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (!tr.ok) throw std::runtime_error(std::string(name) + " run failed: " + tr.failure);
+    if (s < r.wall) r.wall = s, r.trace = std::move(tr);
+  }
+  return r;
+}
+
+std::string json(const char* name, const Result& r) {
+  const auto& t = r.trace;
+  const double rest = r.wall - t.time_internal - t.time_tangent - t.time_factor - t.time_solve;
+  return fmt::format(
+      "    \"{}\": {{\"wall_s\": {:.4f}, \"steps\": {}, \"newton_per_step\": {:.3f}, "
+      "\"factorizations\": {}, \"internal_s\": {:.4f}, \"tangent_s\": {:.4f}, "
+      "\"factor_s\": {:.4f}, \"solve_s\": {:.4f}, \"other_s\": {:.4f}}}",
+      name, r.wall, t.steps, static_cast<double>(t.newton_iterations) / std::max(1L, t.steps),
+      t.factorizations, t.time_internal, t.time_tangent, t.time_factor, t.time_solve, rest);
+}
+
+}  // namespace
+}  // namespace gen4d
+
+int main(int argc, char** argv) {
+  using namespace gen4d;
+  int repeat = 3;
+  return driver::main_with(
+      argc, argv, "Speed of the gen4d diagnose forward model (JSON on stdout)",
+      [&](CLI::App& app) {
+        app.add_option("--repeat", repeat, "runs per case, best time kept")
+            ->check(CLI::Range(1, 100));
+      },
+      [&]() -> int {
+        int rank = 0;
+        MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+        if (rank != 0) return 0;  // serial: one run is one process's work
+        const Config cfg = parse_deck(kDeck, "<diagnose bench deck>", ".", {});
+        const diagnose::VoxelModel model(cfg);
+        std::vector<diagnose::ChannelRequest> req;
+        const double t_end = cfg.end_time;
+        for (int m = 0; m < 10; ++m) {
+          diagnose::ChannelRequest c;
+          c.at = model.attach({0.02 * (m + 1) - 0.001, m % 2 ? 0.04 : 0.0, 0.04});
+          for (int k = 0; k <= 200; ++k) c.t.push_back(t_end * k / 200.0);
+          req.push_back(std::move(c));
+        }
+        diagnose::Physics base = model.nominal();
+        base.law = "linear";
+        base.load_scale = 1e-4;
+        base.gravity = {0, 0, -9.81e-4};
+        diagnose::Physics nominal = model.nominal();
+        diagnose::Physics damped = nominal;
+        damped.rayleigh_beta = 2e-3;
+        diagnose::Physics plastic = nominal;
+        plastic.yield_stress = 1e4;
+        plastic.hardening = 2e4;
+        const Result rb = time_run("baseline", model, base, req, repeat);
+        const Result rn = time_run("nominal", model, nominal, req, repeat);
+        const Result rd = time_run("damping", model, damped, req, repeat);
+        const Result rp = time_run("plastic", model, plastic, req, repeat);
+        std::printf("{\n  \"model\": {\"voxels\": %zu, \"nodes\": %zu, \"repeat\": %d},\n",
+                    model.voxels(), model.nodes(), repeat);
+        std::printf("  \"runs\": {\n%s,\n%s,\n%s,\n%s\n  },\n", json("baseline", rb).c_str(),
+                    json("nominal", rn).c_str(), json("damping", rd).c_str(),
+                    json("plastic", rp).c_str());
+        std::printf("  \"nominal_over_baseline\": %.3f\n}\n", rn.wall / rb.wall);
+        return 0;
+      });
+}
