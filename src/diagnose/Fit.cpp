@@ -93,10 +93,16 @@ int main_component(const Observations& obs, int channel) {
 }
 
 double rms(const Observations& obs, const Prediction& p, const std::vector<char>& mask) {
+  // Positions (m) when the recording has any, else accelerations (m/s^2): never a mix of units.
+  bool any_position = false;
+  for (std::size_t i = 0; i < obs.size() && !any_position; ++i)
+    any_position = mask[i] && !obs.requests[static_cast<std::size_t>(obs.channel[i])].acceleration;
   double s = 0;
   long n = 0;
   for (std::size_t i = 0; i < obs.size(); ++i) {
     if (!mask[i] || !p.ok) continue;
+    if (any_position && obs.requests[static_cast<std::size_t>(obs.channel[i])].acceleration)
+      continue;
     const double d = p.y[i] - obs.y[i];
     s += d * d;
     ++n;

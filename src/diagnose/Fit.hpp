@@ -62,7 +62,8 @@ Eigen::VectorXd weighted_residual(const Observations& obs, const Prediction& p,
                                   const std::vector<char>& mask);
 //! The component (0, 1, 2) of a channel whose observed values vary most.
 int main_component(const Observations& obs, int channel);
-//! Root mean square of (pred - obs) in metres / m s^-2 over mask.
+//! Root mean square of (pred - obs) over mask: of the positions (m) when the recording has
+//! markers, else of the accelerations (m/s^2).
 double rms(const Observations& obs, const Prediction& p, const std::vector<char>& mask);
 
 //! A bounded least-squares problem in internal coordinates z (log of positive parameters).

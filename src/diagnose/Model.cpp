@@ -396,8 +396,9 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   }
   if (ph.ground) planes.push_back({{0, 0, ph.ground_height}, {0, 0, 1}, ph.ground_friction});
   const double k_pen = 2.0 * ph.youngs_modulus * h;  // N/m per node: sub-micron sag, mild tangent
-  // Step matrix A = diag(ca M + cv C + springs) + cv beta K0 + Kt (+ contact penalties); Kt
-  // starts as K0 and is replaced by the tangent at the current state when Newton slows down.
+  // Step matrix A = diag(ca M + cv C + springs) + (1 + cv beta) Kt (+ contact penalties); Kt
+  // starts as K0 and is replaced by the tangent at the current state when Newton slows down
+  // (the viscous stress of stiffness damping has about beta cv times its elastic tangent).
   SpMat diagA(ndof, ndof);
   {
     std::vector<Eigen::Triplet<double>> d;
@@ -410,7 +411,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   std::vector<char> active(nn * std::max<std::size_t>(planes.size(), 1), 0);
   auto factor = [&] {
     PhaseTimer timer(tr.time_factor);
-    SpMat A = diagA + Kt + (cv * ph.rayleigh_beta) * K0;
+    SpMat A = diagA + (1.0 + cv * ph.rayleigh_beta) * Kt;
     for (std::size_t n = 0; n < nn; ++n)
       for (std::size_t p = 0; p < planes.size(); ++p)
         if (dof[n] >= 0 && active[n * planes.size() + p])
@@ -491,10 +492,10 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     std::fill(fint.begin(), fint.end(), 0.0);
     step_max_mises = 0;
     for (std::size_t vx = 0; vx < nv; ++vx) {
-      double xe[8][3];
+      double xe[8][3], ve[8][3];
       for (int l = 0; l < 8; ++l) {
         const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
-        for (int d = 0; d < 3; ++d) xe[l][d] = X_[n][d] + u1[3 * n + d];
+        for (int d = 0; d < 3; ++d) xe[l][d] = X_[n][d] + u1[3 * n + d], ve[l][d] = v1[3 * n + d];
       }
       for (int q = 0; q < 8; ++q) {
         const std::size_t g = 8 * vx + static_cast<std::size_t>(q);
@@ -512,6 +513,29 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
             qv_new[9 * g + i] = (qv[9 * g + i] + rv * ph.prony_g * P[i]) / (1.0 + rv);
             P[i] -= qv_new[9 * g + i];
           }
+        }
+        if (ph.rayleigh_beta != 0) {
+          // Stiffness-proportional (Kelvin-Voigt) damping as a viscous stress: beta times the
+          // linear elastic law applied to the Green strain rate sym(F^T dF/dt), P_v = F S_v.
+          // It is beta K v for small motions, and it does not resist rigid rotation (beta K0 v
+          // would: a cantilever swinging through large angles was damped spuriously).
+          double Fd[9], Ed[9];
+          elastogen::deformation_gradient(S, q, ve, 1.0 / h, Fd);  // dF/dt
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) {
+              double e = 0;
+              for (int k = 0; k < 3; ++k)
+                e += F[3 * k + i] * Fd[3 * k + j] + Fd[3 * k + i] * F[3 * k + j];
+              Ed[3 * i + j] = 0.5 * e;
+            }
+          const double tr = Ed[0] + Ed[4] + Ed[8];
+          double Sv[9];
+          for (int i = 0; i < 9; ++i) Sv[i] = ph.rayleigh_beta * 2.0 * mu0 * Ed[i];
+          for (int i = 0; i < 3; ++i) Sv[4 * i] += ph.rayleigh_beta * lambda0 * tr;
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+              P[3 * i + j] +=
+                  F[3 * i] * Sv[j] + F[3 * i + 1] * Sv[3 + j] + F[3 * i + 2] * Sv[6 + j];
         }
         for (int i = 0; i < 9; ++i) P[i] *= vfac[vx];
         if (!plastic)
@@ -680,13 +704,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
       if (refresh) tangent();
       if ((changed || refresh) && !factor()) break;
       refresh = false;
-      // Residual of the free dofs; Rayleigh stiffness damping acts through K0 on v1.
-      Eigen::VectorXd vf(ndof);
-      for (std::size_t n = 0; n < nn; ++n)
-        if (dof[n] >= 0)
-          for (int d = 0; d < 3; ++d) vf[dof[n] + d] = v1[3 * n + d];
-      Eigen::VectorXd kv;
-      if (ph.rayleigh_beta != 0) kv = ph.rayleigh_beta * (K0 * vf);
+      // Residual of the free dofs (stiffness damping is a stress, in fint).
       for (std::size_t n = 0; n < nn; ++n) {
         if (dof[n] < 0) continue;
         double f[3];
@@ -702,7 +720,6 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
         for (int d = 0; d < 3; ++d) {
           double r = M[i0 + d] * a1[3 * n + d] + Cd[i0 + d] * vn[d] + fint[3 * n + d] - f[d] +
                      Ks[i0 + d] * u1[3 * n + d];
-          if (ph.rayleigh_beta != 0) r += kv[i0 + d];
           if (ph.drag_quadratic != 0) r += ph.drag_quadratic * area_[n] * speed * vn[d];
           if (ph.coulomb_accel != 0 && speed0 > 0)  // lagged direction, cannot reverse motion
             r += std::min(m * ph.coulomb_accel, m * speed0 / dt) * v0[d] / speed0;

@@ -22,7 +22,8 @@ struct Physics {
   double youngs_modulus = 0, poisson_ratio = 0, density = 0;
   Vec3d gravity{0, 0, 0};
   double dt = 0;
-  // damping: C = alpha M + beta K0
+  // damping: alpha M v, and beta times the elastic law's stress of the strain rate (beta K v
+  // for small motions, objective under large rotations)
   double rayleigh_alpha = 0, rayleigh_beta = 0;
   // viscoelasticity: one Prony term; a fraction g of the stress relaxes with time tau
   double prony_g = 0, prony_tau = 1;

@@ -112,12 +112,13 @@ std::string json(const Diagnosis& d) {
   kv("heldout_rms_nominal", jnum(d.heldout_rms_nominal));
   kv("heldout_rms_before", jnum(d.heldout_rms_before));
   kv("heldout_rms_after", jnum(d.heldout_rms_after));
-  kv("runner_up", d.runner_up.empty()
-                      ? "null"
-                      : fmt::format("{{\"effect\": {}, \"score\": {}, \"heldout_rms\": {}, "
-                                    "\"delta_bic\": {}}}",
-                                    jstr(d.runner_up), jnum(d.runner_up_heldout),
-                                    jnum(d.runner_up_heldout), jnum(d.runner_up_bic)));
+  kv("runner_up",
+     d.runner_up.empty()
+         ? "null"
+         : fmt::format("{{\"effect\": {}, \"score\": {}, \"heldout_rms\": {}, "
+                       "\"delta_bic\": {}, \"vuong_z\": {}}}",
+                       jstr(d.runner_up), jnum(d.runner_up_heldout), jnum(d.runner_up_heldout),
+                       jnum(d.runner_up_bic), jnum(d.vuong_z)));
   kv("noise_estimate", jnum(d.noise_position));
   kv("noise_estimate_acceleration", jnum(d.noise_acceleration));
   kv("misfit_tests",
@@ -252,10 +253,13 @@ std::string markdown(const Diagnosis& d) {
                        c.variant.empty() ? "" : ":" + c.variant, c.screen_gain);
   }
   m << "\nRules: an effect is kept when its likelihood-ratio statistic passes p < 0.001, its "
-       "BIC improves by more than 10, and it lowers the held-out rms by at least 20 %; the best "
-       "kept effect has the lowest held-out rms; a second kept effect whose held-out "
-       "chi-square is within two standard deviations (2 sqrt(2 n)) makes the verdict "
-       "ambiguous.\n\n";
+       "BIC improves by more than 10, and it lowers the noise-weighted held-out rms by at least "
+       "20 %; the best kept effect has the lowest noise-weighted held-out chi-square; a second "
+       "kept effect that Vuong's test on the held-out data cannot tell from it (z < 2, batch "
+       "means over 10 samples) makes the verdict ambiguous.";
+  if (std::isfinite(d.vuong_z))
+    m << fmt::format(" Here z = {:.2f} against {}.", d.vuong_z, d.runner_up);
+  m << "\n\n";
   m << fmt::format("Cost: {} forward runs, {:.1f} s of runs, {:.1f} s wall on {} rank(s).\n\n",
                    d.runs, d.run_seconds, d.wall_seconds, d.ranks);
   m << "Plots: residual_time.png, marker_error.png, trajectories.png"

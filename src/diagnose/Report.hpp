@@ -2,6 +2,7 @@
 #pragma once
 
 #include <array>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -30,6 +31,7 @@ struct Candidate {
   double lrt = 0;         //!< N ln(chi2_0 / chi2)
   double delta_bic = 0;   //!< lrt - k ln N (> 0 favours the effect)
   double rms = 0, heldout_rms = 0;
+  double heldout_chi2 = 0;  //!< noise-weighted, over every held-out channel (any unit)
   bool passes = false;
   std::string why;  //!< why it passed or failed the selection rules
   double youngs_modulus = 0, poisson_ratio = 0;
@@ -64,6 +66,8 @@ struct Diagnosis {
   double heldout_rms_nominal = 0, heldout_rms_before = 0, heldout_rms_after = 0;
   std::string runner_up;
   double runner_up_heldout = 0, runner_up_bic = 0;
+  //! Vuong's z of the winner against a passing runner-up (NaN without one).
+  double vuong_z = std::numeric_limits<double>::quiet_NaN();
   double noise_position = 0, noise_acceleration = 0;
   double chi2_red = 0, whiteness_p = 1, lag1 = 0;
   bool misfit = false;
