@@ -32,6 +32,8 @@ constexpr double kMinHeldoutGain = 0.20;
 //! Heterogeneity joins the refits when the best box of the stiffness map explains this share
 //! of the calibrated deck's chi-square (linearised).
 constexpr double kRegionRefitShare = 0.2;
+//! ... unless a refitted effect already lowers the noise-weighted held-out rms by this share.
+constexpr double kRegionRefitBelowGain = 0.8;
 
 //! Upper 0.1 % point of chi-square with k degrees of freedom (k <= 10), else Wilson-Hilferty.
 double chi2_crit999(int k) {
@@ -353,7 +355,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   LsqProblem pb;
   pb.lo = {to_z(base_specs[0], base_specs[0].lo), base_specs[1].lo};
   pb.hi = {to_z(base_specs[0], base_specs[0].hi), base_specs[1].hi};
-  pb.step = {1e-3, 2e-3};
+  pb.step = {1e-3, 1e-2};  // nu moves a beam little: a larger step keeps Newton's tolerance out
   pb.physics = base_physics;
   pb.mask = &obs.train;
   // Start: the nominal E, or the E that moves the dominant frequency of the motion after the
@@ -749,21 +751,6 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     if (c.screen_gain > 0 && static_cast<int>(chosen.size()) < opt.refit &&
         std::find(chosen.begin(), chosen.end(), c.effect) == chosen.end())
       chosen.push_back(c.effect);
-  // A stiffness map concentrated in one box is evidence for heterogeneity however the generic
-  // probe ranks: that probe softens the box the linearised map found, which is often smaller
-  // than the true region, and other effects (gravity, plasticity) absorb a soft region as
-  // extra sag. Heterogeneity is then refitted too, with its region refined by forward runs.
-  if (region_share >= kRegionRefitShare &&
-      std::find(chosen.begin(), chosen.end(), "heterogeneity") == chosen.end() &&
-      std::any_of(screened.begin(), screened.end(), [](const Candidate& c) {
-        return c.effect == "heterogeneity" && c.screen_gain > 0;
-      })) {
-    chosen.push_back("heterogeneity");
-    log::info(
-        "  heterogeneity refitted as well: the stiffness map's box explains {:.1f} % of "
-        "chi2 (>= {:g} %)",
-        100 * region_share, 100 * kRegionRefitShare);
-  }
   std::vector<std::size_t> todo;
   for (std::size_t i = 0; i < screened.size(); ++i)
     if (screened[i].screen_gain > 0 &&
@@ -782,7 +769,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   const double score0 =
       has_holdout ? weighted_residual(obs, base.pred, obs.heldout).squaredNorm() : chi2_0;
   std::vector<Candidate> fits, variant_fits;
-  for (std::size_t i : todo) {
+  auto refit_one = [&](std::size_t i) {
     Candidate c = screened[i];
     const Effect& e = find_effect(c.effect);
     const auto specs = e.params(ctx, c.variant);
@@ -816,12 +803,50 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         if (!std::isnan(v)) z0[2 + q] = to_z(specs[q], std::clamp(v, specs[q].lo, specs[q].hi));
       }
     }
+    const auto events = model.load_events();
+    const double t_free = events.empty() ? 0.0 : events.back();  // motion after the last load
+    if (c.effect == "heterogeneity") {
+      // A soft (stiff) region's frequency change is first absorbed by a lower (higher) uniform
+      // E, and any other factor at that E puts the motion out of phase (chi-square has a
+      // local minimum per period of phase error). Start from the best of a grid of factors,
+      // each with E rescaled so that the dominant frequency stays the calibrated one (one run
+      // to measure the frequency at the factor, one at the rescaled E).
+      const double w_cal = dominant_omega(obs, base.pred.y, t_free);
+      const std::vector<double> grid = {0.2, 0.35, 0.5, 0.7, 1.5, 2.5};
+      std::vector<std::vector<double>> starts;
+      std::vector<Physics> batch_s;
+      for (double f : grid) {
+        std::vector<double> z = z0;
+        z[2] = to_z(specs[0], std::clamp(f, specs[0].lo, specs[0].hi));
+        starts.push_back(z);
+        batch_s.push_back(pr.physics(z));
+      }
+      const auto probe_s = ev.run(batch_s);
+      batch_s.clear();
+      for (std::size_t k = 0; k < starts.size(); ++k) {
+        const double w = probe_s[k].ok ? dominant_omega(obs, probe_s[k].y, t_free) : w_cal;
+        starts[k][0] = std::clamp(starts[k][0] + 2 * std::log(w_cal / w), pr.lo[0], pr.hi[0]);
+        batch_s.push_back(pr.physics(starts[k]));
+      }
+      starts.push_back(z0);
+      batch_s.push_back(pr.physics(z0));
+      const auto runs_s = ev.run(batch_s);
+      double best_chi = 1e300;
+      for (std::size_t k = 0; k < starts.size(); ++k) {
+        if (!runs_s[k].ok) continue;
+        const double ck = weighted_residual(obs, runs_s[k], obs.train).squaredNorm();
+        if (ck < best_chi) best_chi = ck, z0 = starts[k];
+      }
+      log::info("  heterogeneity start: E {:.4g} Pa, factor {:.3g} (chi2 {:.4g}, best of {})",
+                std::exp(z0[0]), from_z(specs[0], z0[2]), best_chi, starts.size());
+    }
     LsqResult r = least_squares(ev, pr, z0, opt.max_iterations);
     if (c.effect == "heterogeneity") {
       // Refine the located box with forward runs: move each face in or out by one voxel,
       // keep the best move while it lowers chi2 by more than 0.5 %, then refit.
       const double h = model.h();
-      for (int round = 0; round < 6; ++round) {
+      const double w_fit = dominant_omega(obs, r.pred.y, t_free);
+      for (int round = 0; round < 8; ++round) {
         std::vector<BoxRegion> boxes;
         for (int a = 0; a < 3; ++a)
           for (int side = 0; side < 2; ++side)
@@ -836,23 +861,49 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
                 continue;
               boxes.push_back(b);
             }
-        std::vector<Physics> batch_b;
+        // Each move is tried at the factor f' that keeps the region's added compliance
+        // (1/f - 1) V (moving a face is a question of shape: at a fixed factor a larger box is
+        // simply a softer body), with E rescaled so that the dominant frequency stays that of
+        // the current fit (else the phase error hides a better shape): two runs per move.
+        std::vector<std::pair<BoxRegion, std::vector<double>>> tries;
         const BoxRegion keep = ctx.region;
+        auto volume = [](const BoxRegion& b) {
+          return (b.hi[0] - b.lo[0]) * (b.hi[1] - b.lo[1]) * (b.hi[2] - b.lo[2]);
+        };
+        const double f = from_z(specs[0], r.z[2]);
         for (const BoxRegion& b : boxes) {
-          ctx.region = b;
-          batch_b.push_back(pr.physics(r.z));
+          const double inv = 1 + (1 / f - 1) * volume(keep) / volume(b);
+          if (!(inv > 0)) continue;
+          std::vector<double> z = r.z;
+          z[2] = to_z(specs[0], std::clamp(1 / inv, specs[0].lo, specs[0].hi));
+          tries.push_back({b, z});
         }
-        ctx.region = keep;
-        const auto pb_runs = ev.run(batch_b);
+        auto run_tries = [&] {
+          std::vector<Physics> batch_b;
+          for (const auto& [b, z] : tries) {
+            ctx.region = b;
+            batch_b.push_back(pr.physics(z));
+          }
+          ctx.region = keep;
+          return ev.run(batch_b);
+        };
+        const auto probe_b = run_tries();
+        for (std::size_t i = 0; i < tries.size(); ++i) {
+          const double w = probe_b[i].ok ? dominant_omega(obs, probe_b[i].y, t_free) : w_fit;
+          tries[i].second[0] =
+              std::clamp(tries[i].second[0] + 2 * std::log(w_fit / w), pr.lo[0], pr.hi[0]);
+        }
+        const auto pb_runs = run_tries();
         double best_chi = r.chi2;
         int pick = -1;
-        for (std::size_t i = 0; i < boxes.size(); ++i) {
+        for (std::size_t i = 0; i < tries.size(); ++i) {
           if (!pb_runs[i].ok) continue;
           const double ci = weighted_residual(obs, pb_runs[i], obs.train).squaredNorm();
           if (ci < best_chi) best_chi = ci, pick = static_cast<int>(i);
         }
         if (pick < 0 || best_chi > 0.995 * r.chi2) break;
-        ctx.region = boxes[static_cast<std::size_t>(pick)];
+        ctx.region = tries[static_cast<std::size_t>(pick)].first;
+        r.z = tries[static_cast<std::size_t>(pick)].second;
         r.chi2 = best_chi;
       }
       r = least_squares(ev, pr, r.z, opt.max_iterations);
@@ -896,12 +947,51 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     log::info("  refit {:<16} {:<12} chi2 {:.4g} -> {:.4g}; {}", c.effect, c.variant, chi2_0,
               c.chi2, c.why);
     variant_fits.push_back(std::move(c));
+  };
+  for (std::size_t i : todo) refit_one(i);
+  // A stiffness map concentrated in one box is evidence for heterogeneity however the generic
+  // probe ranks: that probe softens the box the linearised map found, which is often smaller
+  // than the true region, and other effects (gravity, plasticity) absorb a soft region as
+  // extra sag. Heterogeneity is then refitted too (its region refined by forward runs), unless
+  // a refitted effect already removes most of the held-out misfit.
+  double best_gain = 0;
+  for (const Candidate& c : variant_fits)
+    best_gain = std::max(best_gain, 1 - std::sqrt(score(c) / score0));
+  if (region_share >= kRegionRefitShare && best_gain < kRegionRefitBelowGain &&
+      std::find(chosen.begin(), chosen.end(), "heterogeneity") == chosen.end()) {
+    for (std::size_t i = 0; i < screened.size(); ++i)
+      if (screened[i].effect == "heterogeneity" && screened[i].screen_gain > 0) {
+        if (std::find(chosen.begin(), chosen.end(), "heterogeneity") == chosen.end()) {
+          chosen.push_back("heterogeneity");
+          log::info(
+              "  heterogeneity refitted as well: the stiffness map's box explains {:.1f} % of "
+              "chi2 (>= {:g} %) and the best refit lowers the held-out rms by {:.1f} % (< {:g} %)",
+              100 * region_share, 100 * kRegionRefitShare, 100 * best_gain,
+              100 * kRegionRefitBelowGain);
+        }
+        refit_one(i);
+      }
   }
+  // Per effect the variant with the best BIC, unless a variant with fewer parameters fits the
+  // held-out data as well (Vuong z < 2): extra parameters always absorb some model
+  // discrepancy, so the simpler variant stands until the data need the larger one.
   for (const std::string& name : chosen) {
     const Candidate* b = nullptr;
     for (const Candidate& c : variant_fits)
       if (c.effect == name && (!b || c.delta_bic > b->delta_bic)) b = &c;
-    if (b) fits.push_back(*b);
+    if (!b) continue;
+    const Candidate* simple = b;
+    for (const Candidate& c : variant_fits) {
+      if (c.effect != name || c.params.size() >= b->params.size() || !c.passes) continue;
+      if (vuong_z(obs, has_holdout ? obs.heldout : obs.train, b->pred, c.pred) >= 2) continue;
+      if (simple == b || c.params.size() < simple->params.size() ||
+          (c.params.size() == simple->params.size() && score(c) < score(*simple)))
+        simple = &c;
+    }
+    if (simple != b)
+      log::info("  {}: variant {} kept over {} (held-out fits equal within Vuong z < 2)", name,
+                simple->variant, b->variant);
+    fits.push_back(*simple);
   }
 
   // 6. Select.
@@ -915,6 +1005,18 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   const Candidate* second = order.size() > 1
                                 ? &fits[order[1]]
                                 : (best ? nullptr : (order.empty() ? nullptr : &fits[order[0]]));
+  // Vuong's test between the two best kept effects; when it cannot separate them, the one
+  // with fewer parameters is named first (the verdict is then ambiguous, below).
+  if (best && second && second->passes) {
+    D.vuong_z = vuong_z(obs, has_holdout ? obs.heldout : obs.train, best->pred, second->pred);
+    log::info("  {} vs {}: Vuong z = {:.2f} on the held-out data (ambiguous below 2)", best->effect,
+              second->effect, D.vuong_z);
+    if (D.vuong_z < 2 && second->k < best->k) {
+      log::info("  {} named first: it fits as well with fewer parameters ({} vs {})",
+                second->effect, second->k, best->k);
+      std::swap(best, second);
+    }
+  }
   if (second) {
     D.runner_up = second->effect + (second->variant.empty() ? "" : ":" + second->variant);
     D.runner_up_heldout = has_holdout ? second->heldout_rms : second->rms;
@@ -944,11 +1046,6 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     if (D.effect == "heterogeneity") D.has_region = true, D.region = ctx.region;
     // Ambiguous when the runner-up also passes and Vuong's test on the held-out data cannot
     // tell it from the winner (z < 2): their fits differ by less than the noise can resolve.
-    if (second && second->passes) {
-      D.vuong_z = vuong_z(obs, has_holdout ? obs.heldout : obs.train, best->pred, second->pred);
-      log::info("  {} vs {}: Vuong z = {:.2f} on the held-out data (ambiguous below 2)",
-                best->effect, second->effect, D.vuong_z);
-    }
     if (second && second->passes && D.vuong_z < 2) {
       D.contenders = {best->effect, second->effect};
       D.verdict = "ambiguous";
