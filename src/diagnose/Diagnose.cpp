@@ -842,24 +842,31 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     }
     LsqResult r = least_squares(ev, pr, z0, opt.max_iterations);
     if (c.effect == "heterogeneity") {
-      // Refine the located box with forward runs: move each face in or out by one voxel,
-      // keep the best move while it lowers chi2 by more than 0.5 %, then refit.
+      // Refine the located box with forward runs: move each face in or out by one voxel, or
+      // out to the body's bound (a greedy voxel step cannot cross a worse half-way box), keep
+      // the best move while it lowers chi2 by more than 0.5 %, then refit.
       const double h = model.h();
       const double w_fit = dominant_omega(obs, r.pred.y, t_free);
       for (int round = 0; round < 8; ++round) {
         std::vector<BoxRegion> boxes;
         for (int a = 0; a < 3; ++a)
           for (int side = 0; side < 2; ++side)
-            for (int dir = -1; dir <= 1; dir += 2) {
+            for (int dir = -1; dir <= 2; ++dir) {  // in, out by one voxel; 2: out to the body
+              if (dir == 0) continue;
               BoxRegion b = ctx.region;
-              (side ? b.hi : b.lo)[a] += dir * h;
+              if (dir == 2)
+                (side ? b.hi : b.lo)[a] = (side ? D.body.hi : D.body.lo)[a];
+              else
+                (side ? b.hi : b.lo)[a] += dir * h;
               b.lo[a] = std::max(b.lo[a], D.body.lo[a]);
               b.hi[a] = std::min(b.hi[a], D.body.hi[a]);
               if (b.hi[a] - b.lo[a] < 0.5 * h) continue;
               if (std::abs(b.lo[a] - ctx.region.lo[a]) < 1e-12 * h &&
                   std::abs(b.hi[a] - ctx.region.hi[a]) < 1e-12 * h)
                 continue;
-              boxes.push_back(b);
+              bool seen = false;
+              for (const BoxRegion& o : boxes) seen = seen || (o.lo == b.lo && o.hi == b.hi);
+              if (!seen) boxes.push_back(b);
             }
         // Each move is tried at the factor f' that keeps the region's added compliance
         // (1/f - 1) V (moving a face is a question of shape: at a fixed factor a larger box is
@@ -1005,17 +1012,11 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   const Candidate* second = order.size() > 1
                                 ? &fits[order[1]]
                                 : (best ? nullptr : (order.empty() ? nullptr : &fits[order[0]]));
-  // Vuong's test between the two best kept effects; when it cannot separate them, the one
-  // with fewer parameters is named first (the verdict is then ambiguous, below).
+  // Vuong's test between the two best kept effects (the verdict is ambiguous below z = 2).
   if (best && second && second->passes) {
     D.vuong_z = vuong_z(obs, has_holdout ? obs.heldout : obs.train, best->pred, second->pred);
     log::info("  {} vs {}: Vuong z = {:.2f} on the held-out data (ambiguous below 2)", best->effect,
               second->effect, D.vuong_z);
-    if (D.vuong_z < 2 && second->k < best->k) {
-      log::info("  {} named first: it fits as well with fewer parameters ({} vs {})",
-                second->effect, second->k, best->k);
-      std::swap(best, second);
-    }
   }
   if (second) {
     D.runner_up = second->effect + (second->variant.empty() ? "" : ":" + second->variant);

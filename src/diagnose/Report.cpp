@@ -256,8 +256,7 @@ std::string markdown(const Diagnosis& d) {
        "BIC improves by more than 10, and it lowers the noise-weighted held-out rms by at least "
        "20 %; the best kept effect has the lowest noise-weighted held-out chi-square; a second "
        "kept effect that Vuong's test on the held-out data cannot tell from it (z < 2, batch "
-       "means over 10 samples) makes the verdict ambiguous, and the one with fewer parameters is "
-       "then named first.";
+       "means over 10 samples) makes the verdict ambiguous.";
   if (std::isfinite(d.vuong_z))
     m << fmt::format(" Here z = {:.2f} against {}.", d.vuong_z, d.runner_up);
   m << "\n\n";
