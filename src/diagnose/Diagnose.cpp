@@ -362,12 +362,19 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   // last load change onto the recorded one (E ~ omega^2), whichever fits better. Trajectory
   // least squares has a local minimum per period of phase error; this start avoids them.
   std::vector<double> z_start = {std::log(nominal.youngs_modulus), nominal.poisson_ratio};
+  const auto events = model.load_events();
+  const double t_free = events.empty() ? 0.0 : events.back();  // motion after the last load
+  // log E moved so that the dominant frequency of the motion p predicts becomes w_target
+  // (E ~ omega^2); z unchanged when p failed.
+  auto match_frequency = [&](double zE, double w_target, const Prediction& p) {
+    if (!p.ok) return zE;
+    return std::clamp(zE + 2 * std::log(w_target / dominant_omega(obs, p.y, t_free)), pb.lo[0],
+                      pb.hi[0]);
+  };
   {
-    const auto ev0 = model.load_events();
-    const double t_free = ev0.empty() ? 0.0 : ev0.back();
     const double w_obs = dominant_omega(obs, obs.y, t_free);
+    const double zf = match_frequency(z_start[0], w_obs, nominal_pred);
     const double w_sim = dominant_omega(obs, nominal_pred.y, t_free);
-    const double zf = std::clamp(z_start[0] + 2 * std::log(w_obs / w_sim), pb.lo[0], pb.hi[0]);
     if (std::isfinite(zf) && std::abs(zf - z_start[0]) > 1e-3) {
       const Prediction pf = ev.run_one(base_physics({zf, z_start[1]}));
       const double c0 = weighted_residual(obs, nominal_pred, obs.train).squaredNorm();
@@ -458,7 +465,6 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       else
         D.time_windows.push_back({t0, t1});
     }
-    const auto events = model.load_events();
     for (auto [t0, t1] : D.time_windows) {
       std::string ph;
       double last = 0;
@@ -499,8 +505,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   EffectContext ctx;
   ctx.model = &model;
   ctx.base = calibrated;
-  const auto events = model.load_events();
-  ctx.omega = dominant_omega(obs, obs.y, events.empty() ? 0.0 : events.back());
+  ctx.omega = dominant_omega(obs, obs.y, t_free);
   ctx.max_mises = base.pred.max_mises;
   ctx.max_speed = base.pred.max_speed;
   ctx.total_mass = model.volume() * calibrated.density;
@@ -803,8 +808,6 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         if (!std::isnan(v)) z0[2 + q] = to_z(specs[q], std::clamp(v, specs[q].lo, specs[q].hi));
       }
     }
-    const auto events = model.load_events();
-    const double t_free = events.empty() ? 0.0 : events.back();  // motion after the last load
     if (c.effect == "heterogeneity") {
       // A soft (stiff) region's frequency change is first absorbed by a lower (higher) uniform
       // E, and any other factor at that E puts the motion out of phase (chi-square has a
@@ -824,8 +827,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       const auto probe_s = ev.run(batch_s);
       batch_s.clear();
       for (std::size_t k = 0; k < starts.size(); ++k) {
-        const double w = probe_s[k].ok ? dominant_omega(obs, probe_s[k].y, t_free) : w_cal;
-        starts[k][0] = std::clamp(starts[k][0] + 2 * std::log(w_cal / w), pr.lo[0], pr.hi[0]);
+        starts[k][0] = match_frequency(starts[k][0], w_cal, probe_s[k]);
         batch_s.push_back(pr.physics(starts[k]));
       }
       starts.push_back(z0);
@@ -895,11 +897,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
           return ev.run(batch_b);
         };
         const auto probe_b = run_tries();
-        for (std::size_t i = 0; i < tries.size(); ++i) {
-          const double w = probe_b[i].ok ? dominant_omega(obs, probe_b[i].y, t_free) : w_fit;
-          tries[i].second[0] =
-              std::clamp(tries[i].second[0] + 2 * std::log(w_fit / w), pr.lo[0], pr.hi[0]);
-        }
+        for (std::size_t i = 0; i < tries.size(); ++i)
+          tries[i].second[0] = match_frequency(tries[i].second[0], w_fit, probe_b[i]);
         const auto pb_runs = run_tries();
         double best_chi = r.chi2;
         int pick = -1;
@@ -1178,7 +1177,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         if (D.channel_rms_before[c] > D.channel_rms_before[w]) w = c;
       return static_cast<int>(w);
     }();
-    const double t_free = events.empty() ? tb : events.back();
+    const double t_sig = events.empty() ? tb : events.back();  // signatures from here
     const double T = 2 * kPi / ctx.omega;
     // Per window: obs - mean = alpha (sim - mean) + beta dsim/dt; shift = -beta/alpha.
     struct Win {
@@ -1193,7 +1192,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         ys.push_back(base.pred.y[i]);
       }
     std::vector<Win> wins;
-    for (double w0 = t_free; w0 + T <= te + 1e-12; w0 += T) {
+    for (double w0 = t_sig; w0 + T <= te + 1e-12; w0 += T) {
       std::vector<std::size_t> idx;
       for (std::size_t i = 0; i < ts.size(); ++i)
         if (ts[i] >= w0 && ts[i] < w0 + T) idx.push_back(i);
@@ -1248,7 +1247,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       mo /= static_cast<double>(wins.size());
       off.value = mo;
       off.present = std::abs(mo) > 3 * D.noise_position;
-      off.detail = fmt::format("mean offset {:.3g} m after {:g} s ({:.1f} noise sd)", mo, t_free,
+      off.detail = fmt::format("mean offset {:.3g} m after {:g} s ({:.1f} noise sd)", mo, t_sig,
                                mo / D.noise_position);
       // Offset present from the start (load/gravity) or only after loading (permanent set).
       double early = 0;
@@ -1269,7 +1268,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         std::vector<double> o, s;
         for (std::size_t i = 0; i < obs.size(); ++i)
           if (obs.channel[i] == static_cast<int>(c) && obs.component[i] == comp &&
-              obs.t[i] >= t_free)
+              obs.t[i] >= t_sig)
             o.push_back(obs.y[i]), s.push_back(base.pred.y[i]);
         if (o.size() < 4) continue;
         const double mo = std::accumulate(o.begin(), o.end(), 0.0) / static_cast<double>(o.size());
