@@ -487,6 +487,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
 
   // Internal force of the state u1 into f (3 per node); trial constitutive states.
   std::vector<double> fint(3 * nn);
+  const bool kelvin_voigt = ph.rayleigh_beta != 0;
   auto internal = [&]() -> bool {
     PhaseTimer timer(tr.time_internal);
     std::fill(fint.begin(), fint.end(), 0.0);
@@ -495,7 +496,9 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
       double xe[8][3], ve[8][3];
       for (int l = 0; l < 8; ++l) {
         const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
-        for (int d = 0; d < 3; ++d) xe[l][d] = X_[n][d] + u1[3 * n + d], ve[l][d] = v1[3 * n + d];
+        for (int d = 0; d < 3; ++d) xe[l][d] = X_[n][d] + u1[3 * n + d];
+        if (kelvin_voigt)  // nodal velocities only for the viscous stress
+          for (int d = 0; d < 3; ++d) ve[l][d] = v1[3 * n + d];
       }
       for (int q = 0; q < 8; ++q) {
         const std::size_t g = 8 * vx + static_cast<std::size_t>(q);
@@ -514,7 +517,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
             P[i] -= qv_new[9 * g + i];
           }
         }
-        if (ph.rayleigh_beta != 0) {
+        if (kelvin_voigt) {
           // Stiffness-proportional (Kelvin-Voigt) damping as a viscous stress: beta times the
           // linear elastic law applied to the Green strain rate sym(F^T dF/dt), P_v = F S_v.
           // It is beta K v for small motions, and it does not resist rigid rotation (beta K0 v
