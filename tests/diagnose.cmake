@@ -1,3 +1,5 @@
 # gen4d diagnose: forward model, effects at their null values, noise estimator, rank-spread
 # forward runs and TAO calibration (1 and 2 ranks).
 gen4d_test(diagnose SOURCES test_diagnose.cpp LIBS gen4d_diagnose RANKS 1 2)
+# The forward model's block LDL^T solver against Eigen's.
+gen4d_test(block_ldlt SOURCES test_block_ldlt.cpp LIBS gen4d_diagnose RANKS 1)

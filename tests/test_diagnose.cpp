@@ -344,4 +344,16 @@ TEST(DiagnoseEndToEnd, FindsHiddenMassDampingFromMarkersAndAccelerometers) {
   std::smatch mt;
   ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"alpha\": \\{\"value\": ([-0-9.e+]+)")));
   EXPECT_NEAR(std::stod(mt[1].str()) / 3.0, 1.0, 0.2);
+  // The cost by phase accounts for every forward run, and the refits appear in it.
+  ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"forward_runs\": ([0-9]+)")));
+  const long total = std::stol(mt[1].str());
+  const std::string phases = js.substr(js.find("\"phases\""));
+  long summed = 0;
+  const std::regex run_re("\"runs\": ([0-9]+)");
+  for (auto it = std::sregex_iterator(phases.begin(), phases.end(), run_re);
+       it != std::sregex_iterator(); ++it)
+    summed += std::stol((*it)[1].str());
+  EXPECT_GT(total, 0);
+  EXPECT_EQ(summed, total) << phases;
+  EXPECT_NE(phases.find("\"refit damping mass\""), std::string::npos) << phases;
 }

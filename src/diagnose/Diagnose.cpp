@@ -284,6 +284,16 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   const Observations obs =
       build_observations(model, rec, opt.holdout, D.noise_position, D.noise_acceleration);
   Evaluator ev(comm, model, obs);
+  // Cost by phase: forward runs and wall time since the previous phase ended.
+  long phase_runs = 0;
+  auto phase_t0 = std::chrono::steady_clock::now();
+  auto phase_done = [&](const std::string& name) {
+    const auto now = std::chrono::steady_clock::now();
+    D.phases.push_back(
+        {name, ev.runs() - phase_runs, std::chrono::duration<double>(now - phase_t0).count()});
+    phase_runs = ev.runs();
+    phase_t0 = now;
+  };
   long ntrain = 0;
   for (char c : obs.train) ntrain += c;
   log::info("gen4d diagnose: {} channels, {} values ({} fitted, {} held out); noise {:.3g} m{}",
@@ -328,7 +338,13 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     const double nn = static_cast<double>(std::max(1L, nl));
     D.numerical_change = p[1].ok ? std::abs(std::sqrt(a0 / nn) - std::sqrt(a1 / nn)) : 1e300;
     D.numerical_dispersion = std::sqrt(disp / nn);
-    if (D.numerical_change > 0.3) {
+    // dt is halved when its amplitude error could pass for an effect. The error at dt is about
+    // 4/3 of the dt-to-dt/2 change (second order), and an effect must lower the held-out rms
+    // by kMinHeldoutGain: an error of e noise sd on top of the noise can do that only when
+    // sqrt(1 + e^2) >= 1 / (1 - kMinHeldoutGain), e >= 0.75 at 20 %, i.e. a measured change
+    // of 0.56 sd. Halving below that doubles every run's cost for nothing a verdict can see.
+    const double e_max = std::sqrt(std::pow(1.0 / (1.0 - kMinHeldoutGain), 2) - 1.0);
+    if (D.numerical_change > 0.75 * e_max) {
       nominal.dt /= 2;
       D.dt_halved = true;
     }
@@ -341,6 +357,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         "late-time difference {:.3g} noise sd (dispersion){}",
         D.numerical_change, D.numerical_dispersion, D.dt_halved ? "; using dt/2" : "");
   }
+
+  phase_done("numerical check (dt/2 rerun)");
 
   // 2. Calibrate the baseline: log E and nu (density stays the deck's: E/rho is identified).
   const std::vector<ParamSpec> base_specs = {
@@ -403,6 +421,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       D.youngs_modulus, nominal.youngs_modulus, D.poisson_ratio, D.rms_before, D.chi2_red,
       D.whiteness_p, ev.runs());
   Physics calibrated = base_physics(base.z);
+
+  phase_done("calibration");
 
   // 3a. When: residual energy per time bin, segmented at change points.
   const double tb = rec.t_begin(), te = rec.t_end();
@@ -632,6 +652,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         ctx.region.hi[1], ctx.region.hi[2], 100 * g / chi2_0);
   }
 
+  phase_done("stiffness map");
+
   // 4. Screening: every probe's residual direction, fitted jointly with the baseline's.
   struct Probe {
     const Effect* effect;
@@ -743,6 +765,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     return pr;
   };
 
+  phase_done("screening");
+
   // 5. Refit the best few jointly with the baseline; score on held-out data.
   const double lnN = std::log(std::max(N, 2.0));
   // The best few effects (by their best variant) are refitted, every variant of them; BIC then
@@ -842,7 +866,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       log::info("  heterogeneity start: E {:.4g} Pa, factor {:.3g} (chi2 {:.4g}, best of {})",
                 std::exp(z0[0]), from_z(specs[0], z0[2]), best_chi, starts.size());
     }
-    LsqResult r = least_squares(ev, pr, z0, opt.max_iterations);
+    LsqResult r = least_squares(ev, pr, z0, opt.max_iterations, false);
     if (c.effect == "heterogeneity") {
       // Refine the located box with forward runs: move each face in or out by one voxel, or
       // out to the body's bound (a greedy voxel step cannot cross a worse half-way box), keep
@@ -912,7 +936,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         r.z = tries[static_cast<std::size_t>(pick)].second;
         r.chi2 = best_chi;
       }
-      r = least_squares(ev, pr, r.z, opt.max_iterations);
+      r = least_squares(ev, pr, r.z, opt.max_iterations, false);
       log::info("  heterogeneity region refined to [{:.3g} {:.3g} {:.3g}]-[{:.3g} {:.3g} {:.3g}]",
                 ctx.region.lo[0], ctx.region.lo[1], ctx.region.lo[2], ctx.region.hi[0],
                 ctx.region.hi[1], ctx.region.hi[2]);
@@ -929,6 +953,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     c.youngs_modulus = std::exp(r.z[0]);
     c.poisson_ratio = r.z[1];
     c.pred = r.pred;
+    c.J = r.J;
     for (std::size_t q = 0; q < specs.size(); ++q) {
       ParamEstimate pe;
       pe.name = specs[q].name;
@@ -952,6 +977,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         bic_ok ? "yes" : "no", h1, h0, 100 * gain, 100 * kMinHeldoutGain, held_ok ? "yes" : "no");
     log::info("  refit {:<16} {:<12} chi2 {:.4g} -> {:.4g}; {}", c.effect, c.variant, chi2_0,
               c.chi2, c.why);
+    phase_done(fmt::format("refit {}{}{}", c.effect, c.variant.empty() ? "" : " ", c.variant));
     variant_fits.push_back(std::move(c));
   };
   for (std::size_t i : todo) refit_one(i);
@@ -1078,30 +1104,35 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     }
   }
 
+  phase_done("selection");
+
   // 7. Profile-likelihood intervals of the selected effect's parameters (others re-optimised
   // along the linearised conditional optimum; one forward run per end point).
   if (best && !best->params.empty()) {
     const Effect& e = find_effect(best->effect);
     const auto specs = e.params(ctx, best->variant);
     const LsqProblem pr = effect_problem(e, best->variant);
-    // Jacobian at the optimum.
+    // Jacobian at the optimum: the fit's own when it ended on one, else np runs.
     const std::size_t np = best->z.size();
-    std::vector<Physics> jb;
     const auto& phys = pr.physics;
-    std::vector<double> hstep(np);
-    for (std::size_t j = 0; j < np; ++j) {
-      std::vector<double> z = best->z;
-      hstep[j] = pr.step[j];
-      if (z[j] + hstep[j] > pr.hi[j]) hstep[j] = -hstep[j];
-      z[j] += hstep[j];
-      jb.push_back(phys(z));
-    }
-    const auto jp = ev.run(jb);
     const Eigen::VectorXd rb = weighted_residual(obs, best->pred, obs.train);
-    Eigen::MatrixXd J(rb.size(), static_cast<Eigen::Index>(np));
-    for (std::size_t j = 0; j < np; ++j)
-      J.col(static_cast<Eigen::Index>(j)) =
-          (weighted_residual(obs, jp[j], obs.train) - rb) / hstep[j];
+    Eigen::MatrixXd J = best->J;
+    if (J.rows() != rb.size() || J.cols() != static_cast<Eigen::Index>(np)) {
+      std::vector<Physics> jb;
+      std::vector<double> hstep(np);
+      for (std::size_t j = 0; j < np; ++j) {
+        std::vector<double> z = best->z;
+        hstep[j] = pr.step[j];
+        if (z[j] + hstep[j] > pr.hi[j]) hstep[j] = -hstep[j];
+        z[j] += hstep[j];
+        jb.push_back(phys(z));
+      }
+      const auto jp = ev.run(jb);
+      J.resize(rb.size(), static_cast<Eigen::Index>(np));
+      for (std::size_t j = 0; j < np; ++j)
+        J.col(static_cast<Eigen::Index>(j)) =
+            (weighted_residual(obs, jp[j], obs.train) - rb) / hstep[j];
+    }
     const double s2 = best->chi2 / std::max(1.0, N - static_cast<double>(np));
     const Eigen::MatrixXd H = J.transpose() * J;
     const Eigen::MatrixXd cov = s2 * H.completeOrthogonalDecomposition().pseudoInverse();
@@ -1168,6 +1199,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       }
     }
   }
+
+  phase_done("intervals");
 
   // Signatures of the calibrated deck's misfit (on the worst marker's main component).
   {
@@ -1305,6 +1338,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       D.candidates.push_back(s);
   D.bin_e_after = bin_energy(D.fitted_pred);
   D.channel_rms_after = channel_rms(D.fitted_pred);
+  phase_done("signatures");
   D.runs = ev.runs();
   D.run_seconds = ev.run_seconds();
   D.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();

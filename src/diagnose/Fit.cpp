@@ -276,7 +276,7 @@ PetscErrorCode tao_hessian(Tao, Vec X, Mat H, Mat, void* ctx) {
 }  // namespace
 
 LsqResult least_squares(Evaluator& ev, const LsqProblem& prob, std::vector<double> z0,
-                        int max_iterations) {
+                        int max_iterations, bool final_jacobian) {
   const PetscInt n = static_cast<PetscInt>(z0.size());
   for (std::size_t j = 0; j < z0.size(); ++j) z0[j] = std::clamp(z0[j], prob.lo[j], prob.hi[j]);
   TaoContext c;
@@ -358,14 +358,14 @@ LsqResult least_squares(Evaluator& ev, const LsqProblem& prob, std::vector<doubl
   res.pred = c.pred_best;
   res.r = c.r_best;
   res.chi2 = c.chi2_best;
-  if (c.z_jac != res.z) {
+  if (c.z_jac != res.z && final_jacobian) {
     c.z_cached = res.z;
     c.pred_cached = res.pred;
     c.r_cached = res.r;
     c.have_cached = true;
     jacobian_at(c, res.z);
   }
-  res.J = c.J;
+  if (c.z_jac == res.z) res.J = c.J;
   res.runs = c.runs;
   return res;
 }

@@ -86,8 +86,10 @@ struct LsqResult {
   std::string reason;  //!< TAO's converged reason
 };
 
-//! Minimises |r(z)|^2 from z0 with TAO BRGN; every rank runs the same iterations.
+//! Minimises |r(z)|^2 from z0 with TAO BRGN; every rank runs the same iterations. The
+//! result's J is the Jacobian at the optimum; when the last one TAO computed was elsewhere it is
+//! computed (n runs) only if final_jacobian, else J is left empty.
 LsqResult least_squares(Evaluator& ev, const LsqProblem& prob, std::vector<double> z0,
-                        int max_iterations);
+                        int max_iterations, bool final_jacobian = true);
 
 }  // namespace gen4d::diagnose

@@ -163,10 +163,14 @@ std::string json(const Diagnosis& d) {
   kv("unexplained_misfit", d.unexplained.empty() ? "null" : jstr(d.unexplained));
   kv("deck", jstr(d.deck));
   kv("recording", jstr(d.recording));
+  std::string costs = "[";
+  for (std::size_t i = 0; i < d.phases.size(); ++i)
+    costs += fmt::format("{}{{\"phase\": {}, \"runs\": {}, \"wall_seconds\": {}}}", i ? ", " : "",
+                         jstr(d.phases[i].name), d.phases[i].runs, jnum(d.phases[i].wall_seconds));
   kv("cost",
      fmt::format("{{\"forward_runs\": {}, \"run_seconds\": {}, \"wall_seconds\": {}, "
-                 "\"ranks\": {}}}",
-                 d.runs, jnum(d.run_seconds), jnum(d.wall_seconds), d.ranks),
+                 "\"ranks\": {}, \"phases\": {}]}}",
+                 d.runs, jnum(d.run_seconds), jnum(d.wall_seconds), d.ranks, costs),
      true);
   return s + "}\n";
 }
@@ -262,6 +266,12 @@ std::string markdown(const Diagnosis& d) {
   m << "\n\n";
   m << fmt::format("Cost: {} forward runs, {:.1f} s of runs, {:.1f} s wall on {} rank(s).\n\n",
                    d.runs, d.run_seconds, d.wall_seconds, d.ranks);
+  if (!d.phases.empty()) {
+    m << "| phase | forward runs | wall s |\n|---|---:|---:|\n";
+    for (const auto& p : d.phases)
+      m << fmt::format("| {} | {} | {:.1f} |\n", p.name, p.runs, p.wall_seconds);
+    m << "\n";
+  }
   m << "Plots: residual_time.png, marker_error.png, trajectories.png"
     << (d.located ? ", sensitivity.png" : "") << "; data: fit.csv.\n";
   return m.str();

@@ -36,6 +36,7 @@ struct Candidate {
   std::string why;  //!< why it passed or failed the selection rules
   double youngs_modulus = 0, poisson_ratio = 0;
   Prediction pred;
+  Eigen::MatrixXd J;  //!< Jacobian of the training residual at z, when the fit left one
 };
 
 struct Signature {
@@ -81,6 +82,13 @@ struct Diagnosis {
   std::string unexplained;
   long runs = 0;
   double wall_seconds = 0, run_seconds = 0;
+  //! Forward runs and wall seconds by phase of the method, in order.
+  struct Phase {
+    std::string name;
+    long runs = 0;
+    double wall_seconds = 0;
+  };
+  std::vector<Phase> phases;
   int ranks = 1;
   // plotting data
   std::vector<double> bin_t, bin_e_before, bin_e_after;  //!< residual energy per time bin
