@@ -28,6 +28,8 @@ constexpr double kPi = 3.14159265358979323846;
 //! but small gain is often that discrepancy being absorbed; on blind CalculiX data the null
 //! cases' best spurious gain was 8 %, the concealed effects' gains above 60 %.
 constexpr double kMinHeldoutGain = 0.20;
+//! A refit is given up once its chi-square stays this many times above a passing refit's.
+constexpr double kAbandonFactor = 10.0;
 
 //! Heterogeneity joins the refits when the best box of the stiffness map explains this share
 //! of the calibrated deck's chi-square (linearised).
@@ -802,7 +804,11 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     Candidate c = screened[i];
     const Effect& e = find_effect(c.effect);
     const auto specs = e.params(ctx, c.variant);
-    const LsqProblem pr = effect_problem(e, c.variant);
+    LsqProblem pr = effect_problem(e, c.variant);
+    // Give up a fit that cannot compete: its chi-square stays above ten times that of a fit
+    // that already passes (it could be neither the verdict nor an ambiguous contender).
+    for (const Candidate& f : variant_fits)
+      if (f.passes) pr.abandon_chi2 = std::min(pr.abandon_chi2, kAbandonFactor * f.chi2);
     std::vector<double> z0 = base.z;
     z0.insert(z0.end(), c.z.begin(), c.z.end());
     const Candidate* nest = nullptr;  // the best fitted variant nested in this one
@@ -867,7 +873,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
                 std::exp(z0[0]), from_z(specs[0], z0[2]), best_chi, starts.size());
     }
     LsqResult r = least_squares(ev, pr, z0, opt.max_iterations, false);
-    if (c.effect == "heterogeneity") {
+    if (c.effect == "heterogeneity" && !r.abandoned) {
       // Refine the located box with forward runs: move each face in or out by one voxel, or
       // out to the body's bound (a greedy voxel step cannot cross a worse half-way box), keep
       // the best move while it lowers chi2 by more than 0.5 %, then refit.
@@ -975,6 +981,11 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         "{:.3g} vs {:.3g}, weighted {:+.1f} % (needs <= -{:g} %: {})",
         c.lrt, chi2_crit999(std::max(1, c.k)), lrt_ok ? "yes" : "no", c.delta_bic,
         bic_ok ? "yes" : "no", h1, h0, 100 * gain, 100 * kMinHeldoutGain, held_ok ? "yes" : "no");
+    if (r.abandoned) {  // an unconverged fit: its parameters mean nothing, it is not kept
+      c.passes = false;
+      c.why += fmt::format("; fit given up after {} iterations (chi2 above {:g}x a passing fit's)",
+                           r.iterations, kAbandonFactor);
+    }
     log::info("  refit {:<16} {:<12} chi2 {:.4g} -> {:.4g}; {}", c.effect, c.variant, chi2_0,
               c.chi2, c.why);
     phase_done(fmt::format("refit {}{}{}", c.effect, c.variant.empty() ? "" : " ", c.variant));

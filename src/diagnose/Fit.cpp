@@ -131,6 +131,7 @@ struct TaoContext {
   double scale = 1;
   double f_prev = 0;
   int stalls = 0;
+  bool abandoned = false;
   long max_runs = 1000;  //!< forward runs one fit may spend
 };
 
@@ -215,6 +216,11 @@ PetscErrorCode tao_convergence(Tao tao, void* ctx) {
     return 0;
   }
   c.stalls = its > 0 && c.f_prev - f < 1e-3 * c.f_prev ? c.stalls + 1 : 0;
+  if (its >= 3 && c.chi2_best > c.prob->abandon_chi2 && f > 0.5 * c.f_prev) {
+    c.abandoned = true;
+    PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_USER));
+    return 0;
+  }
   c.f_prev = f;
   if (c.stalls >= 2) PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_USER));
   return 0;
@@ -339,7 +345,8 @@ LsqResult least_squares(Evaluator& ev, const LsqProblem& prob, std::vector<doubl
   PetscInt its;
   parallel::check(TaoGetConvergedReason(tao, &reason), "TaoGetConvergedReason");
   parallel::check(TaoGetIterationNumber(tao, &its), "TaoGetIterationNumber");
-  res.reason = TaoConvergedReasons[reason];
+  res.reason = c.abandoned ? "ABANDONED (cannot compete)" : TaoConvergedReasons[reason];
+  res.abandoned = c.abandoned;
   res.iterations = static_cast<int>(its);
   log::info("    fit: TAO {} after {} iterations", res.reason, its);
   parallel::check(TaoDestroy(&tao), "TaoDestroy");

@@ -6,6 +6,7 @@
 
 #include <Eigen/Dense>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -73,6 +74,9 @@ struct LsqProblem {
   //! Physics of a point z.
   std::function<Physics(const std::vector<double>& z)> physics;
   const std::vector<char>* mask = nullptr;  //!< observations fitted
+  //! A fit whose chi-square stays above this after 3 iterations, and no longer halves per
+  //! iteration, is given up (it cannot compete with a fit that already reached a tenth of it).
+  double abandon_chi2 = std::numeric_limits<double>::infinity();
 };
 
 struct LsqResult {
@@ -84,6 +88,7 @@ struct LsqResult {
   int iterations = 0;
   long runs = 0;
   std::string reason;  //!< TAO's converged reason
+  bool abandoned = false;  //!< stopped by LsqProblem::abandon_chi2
 };
 
 //! Minimises |r(z)|^2 from z0 with TAO BRGN; every rank runs the same iterations. The

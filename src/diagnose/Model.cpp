@@ -496,7 +496,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     std::fill(fint.begin(), fint.end(), 0.0);
     if (with_mises) step_max_mises = 0;
     for (std::size_t vx = 0; vx < nv; ++vx) {
-      double xe[8][3], ve[8][3];
+      double xe[8][3], ve[8][3], fe[8][3] = {};
       for (int l = 0; l < 8; ++l) {
         const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
         for (int d = 0; d < 3; ++d) xe[l][d] = X_[n][d] + u1[3 * n + d];
@@ -552,13 +552,11 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
                     P[3 * i] * F[3 * j] + P[3 * i + 1] * F[3 * j + 1] + P[3 * i + 2] * F[3 * j + 2];
           step_max_mises = std::max(step_max_mises, mises(tau));
         }
-        const double w = h * h / 8.0;
-        for (int l = 0; l < 8; ++l) {
-          const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
-          const double* gN = S.dN[q][l];
-          for (int i = 0; i < 3; ++i)
-            fint[3 * n + i] += w * (P[3 * i] * gN[0] + P[3 * i + 1] * gN[1] + P[3 * i + 2] * gN[2]);
-        }
+        elastogen::add_node_forces(S, q, P, h * h / 8.0, fe);
+      }
+      for (int l = 0; l < 8; ++l) {  // one scatter per voxel
+        const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
+        for (int i = 0; i < 3; ++i) fint[3 * n + i] += fe[l][i];
       }
     }
     return true;
