@@ -87,7 +87,7 @@ struct LsqResult {
   double chi2 = 0;
   int iterations = 0;
   long runs = 0;
-  std::string reason;  //!< TAO's converged reason
+  std::string reason;      //!< TAO's converged reason
   bool abandoned = false;  //!< stopped by LsqProblem::abandon_chi2
 };
 
