@@ -273,6 +273,17 @@ TEST(DiagnoseFit, RanksShareRunsBitForBitAndTaoRecoversE) {
   const LsqResult r = least_squares(ev, pb, {std::log(3e5), 0.3}, 15);
   EXPECT_NEAR(std::exp(r.z[0]) / 3.3e5, 1.0, 2e-3);
   EXPECT_LT(r.chi2 / static_cast<double>(obs.size()), 1.0);
+  EXPECT_FALSE(r.abandoned);
+
+  // Given a bar it cannot get under soon (a passing fit elsewhere reached 1e4), the same fit
+  // stops in the slow part of its E-nu valley, after 3 iterations or more, with fewer runs.
+  LsqProblem barred = pb;
+  barred.abandon_chi2 = 1e4;
+  const LsqResult cut = least_squares(ev, barred, {std::log(3e5), 0.3}, 15);
+  EXPECT_TRUE(cut.abandoned);
+  EXPECT_GE(cut.iterations, 3);
+  EXPECT_GT(cut.chi2, 1e4);
+  EXPECT_LT(cut.runs, r.runs);
 }
 
 TEST(DiagnoseEndToEnd, FindsHiddenMassDampingFromMarkersAndAccelerometers) {
