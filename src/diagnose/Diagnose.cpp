@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <map>
 #include <numeric>
+#include <tuple>
 
 #include "core/Error.hpp"
 #include "core/Log.hpp"
@@ -787,9 +788,12 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     if (screened[i].screen_gain > 0 &&
         std::find(chosen.begin(), chosen.end(), screened[i].effect) != chosen.end())
       todo.push_back(i);
+  // Refit order: by screening rank, slow effects last (a passing fit's chi-square then bars
+  // them early when they cannot compete), and within an effect fewer parameters first.
   auto rank_of = [&](std::size_t i) {
     const auto it = std::find(chosen.begin(), chosen.end(), screened[i].effect);
-    return std::make_pair(it - chosen.begin(), screened[i].z.size());
+    return std::make_tuple(find_effect(screened[i].effect).slow(), it - chosen.begin(),
+                           screened[i].z.size());
   };
   std::stable_sort(todo.begin(), todo.end(),
                    [&](std::size_t a, std::size_t b) { return rank_of(a) < rank_of(b); });

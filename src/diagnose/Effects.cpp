@@ -86,6 +86,7 @@ class Viscoelasticity final : public Effect {
 class Plasticity final : public Effect {
  public:
   std::string name() const override { return "plasticity"; }
+  bool slow() const override { return true; }
   std::string summary() const override {
     return "von Mises yield with linear isotropic hardening (Hencky elasticity)";
   }

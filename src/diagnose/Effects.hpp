@@ -64,6 +64,10 @@ class Effect {
                      const EffectContext& c, Physics& ph) const = 0;
   //! Free choices beyond the continuous parameters, counted in BIC (region, law).
   virtual int discrete_dof() const { return 0; }
+  //! True when the effect makes forward runs several times slower (a return map per Gauss
+  //! point): such effects are refitted after the others, so that a passing fit's chi-square
+  //! can cut short a fit that cannot compete with it.
+  virtual bool slow() const { return false; }
 };
 
 //! Every registered effect, in a fixed order.
