@@ -75,12 +75,48 @@ TEST(BlockLDLT, SolvesLikeEigenLDLT) {
   }
 }
 
-TEST(BlockLDLT, ReportsAnIndefiniteSingularMatrix) {
-  SpMat A(3, 3);  // all zero: LDL^T has a zero pivot
-  A.insert(0, 0) = 0.0;
+TEST(BlockLDLT, FactorsAnIndefiniteMatrixAndReportsASingularOne) {
+  // Indefinite but with nonsingular leading block minors: factors and solves.
+  SpMat A = grid_matrix(4, 3, 2, 5u);
+  for (int i = 0; i < 6; ++i) A.coeffRef(i, i) = -A.coeff(i, i);
   BlockLDLT blk;
   blk.analyze(A);
-  EXPECT_FALSE(blk.factorize(A));
+  ASSERT_TRUE(blk.factorize(A));
+  Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(A.rows(), -1.0, 2.0), x;
+  blk.solve(b, x);
+  EXPECT_LT((A * x - b).norm(), 1e-12 * b.norm());
+  // [[B, B], [B, B]]: the second pivot B - B B^-1 B is zero.
+  std::vector<Eigen::Triplet<double>> t;
+  for (int I = 0; I < 2; ++I)
+    for (int J = 0; J < 2; ++J)
+      for (int a = 0; a < 3; ++a)
+        for (int c = 0; c < 3; ++c) t.emplace_back(3 * I + a, 3 * J + c, a == c ? 2.0 : 0.5);
+  SpMat S(6, 6);
+  S.setFromTriplets(t.begin(), t.end());
+  blk.analyze(S);
+  EXPECT_FALSE(blk.factorize(S));
+  SpMat Z(3, 3);  // all zero
+  Z.insert(0, 0) = 0.0;
+  blk.analyze(Z);
+  EXPECT_FALSE(blk.factorize(Z));
+}
+
+TEST(BlockLDLT, FactorsASubsetOfTheAnalysedPatternAndRejectsMore) {
+  const SpMat A = grid_matrix(5, 4, 3, 9u);
+  SpMat diag(A.rows(), A.cols());  // the diagonal blocks alone
+  std::vector<Eigen::Triplet<double>> t;
+  for (int k = 0; k < A.outerSize(); ++k)
+    for (SpMat::InnerIterator it(A, k); it; ++it)
+      if (it.row() / 3 == it.col() / 3) t.emplace_back(it.row(), it.col(), it.value());
+  diag.setFromTriplets(t.begin(), t.end());
+  BlockLDLT blk;
+  blk.analyze(A);
+  ASSERT_TRUE(blk.factorize(diag));
+  Eigen::VectorXd b = Eigen::VectorXd::Ones(A.rows()), x;
+  blk.solve(b, x);
+  EXPECT_LT((diag * x - b).norm(), 1e-12 * b.norm());
+  blk.analyze(diag);
+  EXPECT_THROW(blk.factorize(A), std::logic_error);
 }
 
 TEST(BlockLDLT, RejectsAMatrixWithoutNodeBlocks) {

@@ -1,11 +1,13 @@
-//! Sparse LDL^T of a symmetric matrix made of 3x3 node blocks (3 dofs per node, numbered
-//! consecutively), with triangular solves on 3x3 blocks.
+//! Sparse block LDL^T of a symmetric matrix made of 3x3 node blocks (3 dofs per node, numbered
+//! consecutively): A = L D L^T with L unit block-lower-triangular and D block-diagonal (3x3).
 //!
-//! The factorization is Eigen's SimplicialLDLT on the matrix permuted by an AMD ordering of
-//! the node graph (so a node's three dofs stay adjacent and L is made of dense 3x3 blocks);
-//! after each factorization L is copied into a block-compressed layout, whose solves read one
-//! row index per 9 values instead of one per value. In the diagnose forward model a run does
-//! thousands of solves per factorization, and the solve is its second-largest cost.
+//! The nodes are ordered by AMD on the node graph (Eigen's AMDOrdering); the block structure
+//! of L comes from a symbolic elimination on that graph (once per pattern), and the numeric
+//! factorization is left-looking over 3x3 blocks, so both the factorization and the solves
+//! read one index per 9 values. In the diagnose forward model a run factors the step matrix
+//! tens of times and solves with it thousands of times; both were a third of a run with a
+//! scalar simplicial LDL^T. No pivoting: A must have nonsingular leading block minors (true
+//! for the model's SPD step matrices; an indefinite but nonsingular one also factors).
 #pragma once
 
 #include <Eigen/Sparse>
@@ -17,24 +19,30 @@ class BlockLDLT {
  public:
   using SpMat = Eigen::SparseMatrix<double>;
 
-  //! Symbolic analysis of the pattern of A (ndof = 3 * nodes, both triangles stored).
+  //! Ordering and block structure of L from the pattern of A (both triangles stored, 3 dofs
+  //! per node); std::logic_error when A is not square with 3 dofs per node.
   void analyze(const SpMat& A);
-  //! Numeric factorization of A (same pattern as analyze()'s, or a subset of it).
+  //! Numeric factorization of A, whose pattern must lie within analyze()'s. False when a
+  //! diagonal block pivot is singular or not finite.
   bool factorize(const SpMat& A);
   //! x = A^-1 b with the last factorization; x and b may not alias.
   void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) const;
-  //! Nonzero 3x3 blocks of L below the diagonal blocks (for tests and benchmarks).
+  //! Nonzero 3x3 blocks of L below its diagonal.
   std::size_t off_blocks() const { return row_.size(); }
 
  private:
-  Eigen::SimplicialLDLT<SpMat, Eigen::Lower, Eigen::NaturalOrdering<int>> ldlt_;
-  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> perm_;  //!< new = perm(old)
   int nodes_ = 0;
-  std::vector<double> diag_;   //!< per node: the strictly lower part of its diagonal block
-                               //!< (l10, l20, l21) and D (d0, d1, d2)
-  std::vector<int> start_;     //!< per node column: first off-diagonal block
-  std::vector<int> row_;       //!< row node of each off-diagonal block
-  std::vector<double> val_;    //!< 9 values per block, row-major (row dof a, column dof b)
+  std::vector<int> perm_;   //!< new node index of each old node
+  std::vector<int> iperm_;  //!< old node of each new index
+  std::vector<int> start_;  //!< per node column K: its blocks are [start_[K], start_[K+1])
+  std::vector<int> row_;    //!< row node of each block (ascending within a column)
+  //! Per node K: (J, block index of L_KJ) for every column J < K with a block in row K.
+  std::vector<std::vector<std::pair<int, int>>> row_blocks_;
+  std::vector<double> L_;      //!< 9 values per block, row-major
+  std::vector<double> M_;      //!< L_IK D_K per block (the left-looking updates use it)
+  std::vector<double> Dinv_;   //!< 9 values per node: D_K^-1
+  std::vector<double> W_;      //!< work: 9 per block of the current column, + 9 for D_K
+  std::vector<int> slot_;      //!< work: row node -> position in the current column
   mutable Eigen::VectorXd y_;  //!< permuted work vector
 };
 
