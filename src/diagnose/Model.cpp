@@ -25,6 +25,26 @@ namespace gen4d::diagnose {
 
 namespace {
 
+//! F = sum_l x_l (x) grad N_l at one Gauss point (g: the gradients there, 1/m).
+inline void grad_at(const double (&g)[8][3], const double x[8][3], double F[9]) {
+  for (int a = 0; a < 3; ++a) {
+    double f0 = 0, f1 = 0, f2 = 0;
+    for (int l = 0; l < 8; ++l) {
+      f0 += x[l][a] * g[l][0];
+      f1 += x[l][a] * g[l][1];
+      f2 += x[l][a] * g[l][2];
+    }
+    F[3 * a] = f0, F[3 * a + 1] = f1, F[3 * a + 2] = f2;
+  }
+}
+
+//! fe_l += w P grad N_l at one Gauss point (w: its volume, m^3).
+inline void scatter_at(const double (&g)[8][3], const double P[9], double w, double fe[8][3]) {
+  for (int l = 0; l < 8; ++l)
+    for (int a = 0; a < 3; ++a)
+      fe[l][a] += w * (P[3 * a] * g[l][0] + P[3 * a + 1] * g[l][1] + P[3 * a + 2] * g[l][2]);
+}
+
 using elastogen::HexStencil;
 using SpMat = Eigen::SparseMatrix<double>;
 
@@ -486,6 +506,12 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     return true;
   };
 
+  // Shape-function gradients in physical units (1/m) at the 8 Gauss points.
+  double G[8][8][3];
+  for (int q = 0; q < 8; ++q)
+    for (int l = 0; l < 8; ++l)
+      for (int c = 0; c < 3; ++c) G[q][l][c] = S.dN[q][l][c] / h;
+
   // Internal force of the state u1 into f (3 per node); trial constitutive states.
   std::vector<double> fint(3 * nn);
   const bool kelvin_voigt = ph.rayleigh_beta != 0;
@@ -506,7 +532,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
       for (int q = 0; q < 8; ++q) {
         const std::size_t g = 8 * vx + static_cast<std::size_t>(q);
         double F[9], P[9], tau[9];
-        elastogen::deformation_gradient(S, q, xe, 1.0 / h, F);
+        grad_at(G[q], xe, F);
         if (plastic) {
           if (!plastic_stress(g, F, P, tau, &pstate_new[mpm::kStateSize * g], &fp_inv_new[9 * g]))
             return false;
@@ -526,7 +552,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
           // It is beta K v for small motions, and it does not resist rigid rotation (beta K0 v
           // would: a cantilever swinging through large angles was damped spuriously).
           double Fd[9], Ed[9];
-          elastogen::deformation_gradient(S, q, ve, 1.0 / h, Fd);  // dF/dt
+          grad_at(G[q], ve, Fd);  // dF/dt
           for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j) {
               double e = 0;
@@ -552,7 +578,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
                     P[3 * i] * F[3 * j] + P[3 * i + 1] * F[3 * j + 1] + P[3 * i + 2] * F[3 * j + 2];
           step_max_mises = std::max(step_max_mises, mises(tau));
         }
-        elastogen::add_node_forces(S, q, P, h * h / 8.0, fe);
+        scatter_at(G[q], P, h * h * h / 8.0, fe);
       }
       for (int l = 0; l < 8; ++l) {  // one scatter per voxel
         const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
@@ -579,7 +605,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
       double Ke[24][24] = {};
       for (int q = 0; q < 8; ++q) {
         double F[9], D[9][9];
-        elastogen::deformation_gradient(S, q, xe, 1.0 / h, F);
+        grad_at(G[q], xe, F);
         const double eps = 1e-6;
         const std::size_t g = 8 * vx + static_cast<std::size_t>(q);
         for (int j = 0; j < 9; ++j) {
