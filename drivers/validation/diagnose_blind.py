@@ -908,8 +908,8 @@ def run_diagnose(gen4d, cdir, np_):
     return proc, time.time() - t0
 
 
-def read_report(cdir):
-    with open(os.path.join(cdir, "diag", "report.json")) as f:
+def read_report(cdir, sub="diag"):
+    with open(os.path.join(cdir, sub, "report.json")) as f:
         rep = json.load(f)
     if not isinstance(rep, dict) or "verdict" not in rep:
         raise ValueError("report.json has no 'verdict'")
@@ -996,7 +996,7 @@ def summarize(results):
 
 
 def cmd_score(args):
-    if not os.path.exists(args.gen4d):
+    if not args.reports and not (args.gen4d and os.path.exists(args.gen4d)):
         sys.stderr.write("gen4d not found: %s\n" % args.gen4d)
         return 2
     listing = os.path.join(args.cases, "cases.json")
@@ -1012,11 +1012,17 @@ def cmd_score(args):
         cdir = os.path.join(args.cases, name)
         with open(os.path.join(cdir, "truth.json")) as f:
             truth = json.load(f)
-        proc, wall = run_diagnose(args.gen4d, cdir, args.np)
+        if args.reports:  # diagnosed already (e.g. one batch job per case): score only
+            proc, wall = argparse.Namespace(returncode=0, stdout=""), None
+        else:
+            proc, wall = run_diagnose(args.gen4d, cdir, args.np)
         try:
             if proc.returncode != 0:
                 raise ValueError("gen4d diagnose exited with %d" % proc.returncode)
-            res = score_case(truth, read_report(cdir))
+            rep = read_report(cdir, args.reports or "diag")
+            if wall is None:
+                wall = rep.get("cost", {}).get("wall_seconds")
+            res = score_case(truth, rep)
         except (OSError, ValueError, KeyError, TypeError) as e:
             tail = "\n".join(proc.stdout.strip().splitlines()[-10:])
             print("case %s: no usable report (%s); gen4d exit %d, last output:\n%s"
@@ -1025,7 +1031,7 @@ def cmd_score(args):
                        false_discovery=False, error=str(e))
             if truth["effect"] is not None:
                 res["rms_reduction"] = None
-        res.update(case=name, wall_s=wall)
+        res.update(case=name, wall_s=wall if wall is not None else float("nan"))
         results.append(res)
     confusion(results)
     metrics, ok = summarize(results)
@@ -1056,7 +1062,10 @@ def main(argv=None):
     g.add_argument("--only", nargs="*", help="generate only these cases")
     s = sub.add_parser("score", help="run gen4d diagnose on the cases and score it")
     s.add_argument("--cases", required=True)
-    s.add_argument("--gen4d", required=True)
+    s.add_argument("--gen4d", help="gen4d to run (not needed with --reports)")
+    s.add_argument("--reports", metavar="SUBDIR",
+                   help="score the reports already in CASE/SUBDIR/report.json instead of "
+                        "running diagnose")
     s.add_argument("--np", type=int, default=1)
     s.add_argument("--json")
     s.add_argument("--only", nargs="*")
