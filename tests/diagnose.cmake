@@ -3,3 +3,5 @@
 gen4d_test(diagnose SOURCES test_diagnose.cpp LIBS gen4d_diagnose RANKS 1 2)
 # The forward model's block LDL^T solver against Eigen's.
 gen4d_test(block_ldlt SOURCES test_block_ldlt.cpp LIBS gen4d_diagnose RANKS 1)
+# The forward model's von Mises return map against the MPM von_mises material.
+gen4d_test(hencky_j2 SOURCES test_hencky_j2.cpp LIBS gen4d_diagnose RANKS 1)

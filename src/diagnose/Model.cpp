@@ -1,6 +1,7 @@
 #include "diagnose/Model.hpp"
 
 #include "diagnose/BlockLDLT.hpp"
+#include "diagnose/HenckyJ2.hpp"
 
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
@@ -19,7 +20,6 @@
 #include "materials/NeoHookean.hpp"
 #include "materials/Registry.hpp"
 #include "materials/StVK.hpp"
-#include "mpm/Material.hpp"
 
 namespace gen4d::diagnose {
 
@@ -452,25 +452,19 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   // Constitutive state per Gauss point.
   const bool plastic = std::isfinite(ph.yield_stress);
   const bool visco = ph.prony_g > 0;
-  std::unique_ptr<mpm::Material> vm;
+  HenckyJ2 j2;  // von Mises with linear hardening (Hencky elasticity)
   if (plastic) {
-    mpm::MaterialParams mp;
-    mp.model = "von_mises";
-    mp.source = cfg_.source;
-    mp.values = {{"youngs_modulus", ph.youngs_modulus},
-                 {"poisson_ratio", ph.poisson_ratio},
-                 {"density", ph.density},
-                 {"yield_stress", std::max(ph.yield_stress, 0.0)},
-                 {"hardening", std::max(ph.hardening, 0.0)}};
-    vm = mpm::make_material(mp);
+    j2.mu = mu0;
+    j2.lambda = lambda0;
+    j2.yield_stress = std::max(ph.yield_stress, 0.0);
+    j2.hardening = std::max(ph.hardening, 0.0);
   }
   const std::size_t ngp = nv * 8;
   std::vector<double> fp_inv, fp_inv_new, pstate, pstate_new, qv, qv_new, pel_prev, pel_new;
   if (plastic) {
     fp_inv.assign(9 * ngp, 0.0);
     for (std::size_t g = 0; g < ngp; ++g) fp_inv[9 * g] = fp_inv[9 * g + 4] = fp_inv[9 * g + 8] = 1;
-    pstate.assign(mpm::kStateSize * ngp, 0.0);
-    for (std::size_t g = 0; g < ngp; ++g) vm->init_state(&pstate[mpm::kStateSize * g]);
+    pstate.assign(ngp, 0.0);  // equivalent plastic strain per Gauss point
     fp_inv_new = fp_inv;
     pstate_new = pstate;
   }
@@ -495,8 +489,8 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
                             double* state, double* fp_inv_out) -> bool {
     double Fe[9], Finv[9];
     mat_mul(F, &fp_inv[9 * g], Fe);
-    std::copy(&pstate[mpm::kStateSize * g], &pstate[mpm::kStateSize * g] + mpm::kStateSize, state);
-    vm->update(1, Fe, state, tau, dt);
+    *state = pstate[g];
+    if (!j2.update(Fe, *state, tau)) return false;
     if (!invert(F, Finv)) return false;
     if (fp_inv_out) mat_mul(Finv, Fe, fp_inv_out);
     for (int i = 0; i < 3; ++i)  // P = tau F^-T
@@ -534,8 +528,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
         double F[9], P[9], tau[9];
         grad_at(G[q], xe, F);
         if (plastic) {
-          if (!plastic_stress(g, F, P, tau, &pstate_new[mpm::kStateSize * g], &fp_inv_new[9 * g]))
-            return false;
+          if (!plastic_stress(g, F, P, tau, &pstate_new[g], &fp_inv_new[9 * g])) return false;
         } else {
           elastic_stress(F, P);
         }
@@ -615,9 +608,9 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
           Fp[j] += eps;
           Fm[j] -= eps;
           if (plastic) {  // the consistent tangent of the return map
-            double tau[9], st[mpm::kStateSize];
-            plastic_stress(g, Fp, Pp, tau, st, nullptr);
-            plastic_stress(g, Fm, Pm, tau, st, nullptr);
+            double tau[9], st;
+            plastic_stress(g, Fp, Pp, tau, &st, nullptr);
+            plastic_stress(g, Fm, Pm, tau, &st, nullptr);
           } else {
             elastic_stress(Fp, Pp);
             elastic_stress(Fm, Pm);
