@@ -116,9 +116,9 @@ std::string json(const Diagnosis& d) {
      d.runner_up.empty()
          ? "null"
          : fmt::format("{{\"effect\": {}, \"score\": {}, \"heldout_rms\": {}, "
-                       "\"delta_bic\": {}, \"vuong_z\": {}}}",
+                       "\"delta_bic\": {}, \"vuong_z\": {}, \"gap_over_unexplained\": {}}}",
                        jstr(d.runner_up), jnum(d.runner_up_heldout), jnum(d.runner_up_heldout),
-                       jnum(d.runner_up_bic), jnum(d.vuong_z)));
+                       jnum(d.runner_up_bic), jnum(d.vuong_z), jnum(d.runner_up_gap)));
   kv("noise_estimate", jnum(d.noise_position));
   kv("noise_estimate_acceleration", jnum(d.noise_acceleration));
   kv("misfit_tests",
@@ -260,9 +260,12 @@ std::string markdown(const Diagnosis& d) {
        "BIC improves by more than 10, and it lowers the noise-weighted held-out rms by at least "
        "20 %; the best kept effect has the lowest noise-weighted held-out chi-square; a second "
        "kept effect that Vuong's test on the held-out data cannot tell from it (z < 2, batch "
-       "means over 10 samples) makes the verdict ambiguous.";
+       "means over 10 samples), or whose held-out chi-square exceeds the winner's by less than "
+       "the misfit the winner leaves beyond the noise (a difference below the model "
+       "discrepancy both carry), makes the verdict ambiguous.";
   if (std::isfinite(d.vuong_z))
-    m << fmt::format(" Here z = {:.2f} against {}.", d.vuong_z, d.runner_up);
+    m << fmt::format(" Here z = {:.2f} and the gap is {:.3g} x the unexplained misfit, against {}.",
+                     d.vuong_z, d.runner_up_gap, d.runner_up);
   m << "\n\n";
   m << fmt::format("Cost: {} forward runs, {:.1f} s of runs, {:.1f} s wall on {} rank(s).\n\n",
                    d.runs, d.run_seconds, d.wall_seconds, d.ranks);

@@ -69,6 +69,9 @@ struct Diagnosis {
   double runner_up_heldout = 0, runner_up_bic = 0;
   //! Vuong's z of the winner against a passing runner-up (NaN without one).
   double vuong_z = std::numeric_limits<double>::quiet_NaN();
+  //! Runner-up's held-out chi2 minus the winner's, over the winner's held-out chi2 minus its
+  //! count (the misfit it leaves beyond the noise); ambiguous below 1.
+  double runner_up_gap = std::numeric_limits<double>::quiet_NaN();
   double noise_position = 0, noise_acceleration = 0;
   double chi2_red = 0, whiteness_p = 1, lag1 = 0;
   bool misfit = false;
