@@ -842,14 +842,14 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         if (!std::isnan(v)) z0[2 + q] = to_z(specs[q], std::clamp(v, specs[q].lo, specs[q].hi));
       }
     }
-    if (c.effect == "heterogeneity") {
-      // A soft (stiff) region's frequency change is first absorbed by a lower (higher) uniform
-      // E, and any other factor at that E puts the motion out of phase (chi-square has a
-      // local minimum per period of phase error). Start from the best of a grid of factors,
-      // each with E rescaled so that the dominant frequency stays the calibrated one (one run
-      // to measure the frequency at the factor, one at the rescaled E).
+    if (const auto grid = e.frequency_grid(ctx, c.variant); !grid.empty()) {
+      // A soft (stiff) region or a compliant clamp changes the frequency, which the
+      // calibration has already absorbed into E, and any other value at that E puts the motion
+      // out of phase (chi-square has a local minimum per period of phase error). Start from
+      // the best of a grid of values of the effect's first parameter, each with E rescaled so
+      // that the dominant frequency stays the calibrated one (one run to measure the frequency
+      // at the value, one at the rescaled E), or from the screening start.
       const double w_cal = dominant_omega(obs, base.pred.y, t_free);
-      const std::vector<double> grid = {0.2, 0.35, 0.5, 0.7, 1.5, 2.5};
       std::vector<std::vector<double>> starts;
       std::vector<Physics> batch_s;
       for (double f : grid) {
@@ -873,8 +873,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         const double ck = weighted_residual(obs, runs_s[k], obs.train).squaredNorm();
         if (ck < best_chi) best_chi = ck, z0 = starts[k];
       }
-      log::info("  heterogeneity start: E {:.4g} Pa, factor {:.3g} (chi2 {:.4g}, best of {})",
-                std::exp(z0[0]), from_z(specs[0], z0[2]), best_chi, starts.size());
+      log::info("  {} start: E {:.4g} Pa, {} {:.4g} (chi2 {:.4g}, best of {})", c.effect,
+                std::exp(z0[0]), specs[0].name, from_z(specs[0], z0[2]), best_chi, starts.size());
     }
     LsqResult r = least_squares(ev, pr, z0, opt.max_iterations, false);
     if (c.effect == "heterogeneity" && !r.abandoned) {

@@ -168,6 +168,9 @@ class Heterogeneity final : public Effect {
     ph.region_factor = p[0];
   }
   int discrete_dof() const override { return 6; }
+  std::vector<double> frequency_grid(const EffectContext&, const std::string&) const override {
+    return {0.2, 0.35, 0.5, 0.7, 1.5, 2.5};  // region stiffness factors
+  }
 };
 
 //! Missing or misdirected gravity / body load.
@@ -222,6 +225,10 @@ class ClampCompliance final : public Effect {
   }
   std::vector<double> null_values(const EffectContext& c, const std::string&) const override {
     return {1e4 * c.base.youngs_modulus / c.model->h(), 0};
+  }
+  std::vector<double> frequency_grid(const EffectContext& c, const std::string&) const override {
+    const double k = c.base.youngs_modulus / c.model->h();  // clamp stiffness per area, Pa/m
+    return {0.03 * k, 0.1 * k, 0.3 * k, 1.0 * k, 3.0 * k};
   }
   void apply(const std::string&, const std::vector<double>& p, const EffectContext& c,
              Physics& ph) const override {

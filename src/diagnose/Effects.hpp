@@ -68,6 +68,13 @@ class Effect {
   //! point): such effects are refitted after the others, so that a passing fit's chi-square
   //! can cut short a fit that cannot compete with it.
   virtual bool slow() const { return false; }
+  //! Values of the first parameter (natural units) at which a refit may start, each with E
+  //! rescaled to keep the calibrated dominant frequency: for effects that lower (or raise) the
+  //! frequency, which the calibration has already absorbed into E, so that any other value at
+  //! the calibrated E is out of phase. Empty: start from the screening estimate.
+  virtual std::vector<double> frequency_grid(const EffectContext&, const std::string&) const {
+    return {};
+  }
 };
 
 //! Every registered effect, in a fixed order.
