@@ -801,6 +801,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   // nothing is held out), which weighs markers and accelerometers by their noise.
   const bool has_holdout = obs.size() > static_cast<std::size_t>(ntrain);
   auto score = [&](const Candidate& c) { return has_holdout ? c.heldout_chi2 : c.chi2; };
+  const std::vector<char>& scored = has_holdout ? obs.heldout : obs.train;  // what score() sums
   const double score0 =
       has_holdout ? weighted_residual(obs, base.pred, obs.heldout).squaredNorm() : chi2_0;
   std::vector<Candidate> fits, variant_fits;
@@ -1030,7 +1031,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     const Candidate* simple = b;
     for (const Candidate& c : variant_fits) {
       if (c.effect != name || c.params.size() >= b->params.size() || !c.passes) continue;
-      if (vuong_z(obs, has_holdout ? obs.heldout : obs.train, b->pred, c.pred) >= 2) continue;
+      if (vuong_z(obs, scored, b->pred, c.pred) >= 2) continue;
       if (simple == b || c.params.size() < simple->params.size() ||
           (c.params.size() == simple->params.size() && score(c) < score(*simple)))
         simple = &c;
@@ -1056,9 +1057,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   // winner itself leaves beyond the noise (held-out chi2 - its count): below 1, the two differ
   // by less than the model discrepancy both carry, and the data cannot attribute the
   // difference to physics. Infinite when the winner fits to the noise (Vuong's test decides).
-  double n_scored = 0;
-  for (std::size_t i = 0; i < obs.size(); ++i)
-    n_scored += has_holdout ? obs.heldout[i] : obs.train[i];
+  const double n_scored = static_cast<double>(std::count(scored.begin(), scored.end(), 1));
   auto contender_gap = [&](const Candidate& c) {
     const double unexplained = score(*best) - n_scored;
     return unexplained > 0 ? (score(c) - score(*best)) / unexplained
@@ -1066,7 +1065,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   };
   // Vuong's test between the two best kept effects (the verdict is ambiguous below z = 2).
   if (best && second && second->passes) {
-    D.vuong_z = vuong_z(obs, has_holdout ? obs.heldout : obs.train, best->pred, second->pred);
+    D.vuong_z = vuong_z(obs, scored, best->pred, second->pred);
     D.runner_up_gap = contender_gap(*second);
     log::info(
         "  {} vs {}: Vuong z = {:.2f}; held-out chi2 gap {:.3g} x the winner's unexplained misfit "
@@ -1114,7 +1113,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       for (std::size_t k = 2; k < order.size(); ++k) {
         const Candidate& c = fits[order[k]];
         if (!c.passes) continue;
-        const double z = vuong_z(obs, has_holdout ? obs.heldout : obs.train, best->pred, c.pred);
+        const double z = vuong_z(obs, scored, best->pred, c.pred);
         if (contender_gap(c) < 1 || z < 2) D.contenders.push_back(c.effect);
       }
       D.verdict = "ambiguous";

@@ -4,7 +4,6 @@
 #include "diagnose/HenckyJ2.hpp"
 
 #include <Eigen/Sparse>
-#include <Eigen/SparseCholesky>
 #include <fmt/format.h>
 
 #include <algorithm>
