@@ -3,6 +3,9 @@
 #include "diagnose/BlockLDLT.hpp"
 #include "diagnose/HenckyJ2.hpp"
 
+#include <Eigen/Cholesky>
+#include <Eigen/Dense>
+#include <Eigen/IterativeLinearSolvers>
 #include <Eigen/Sparse>
 #include <fmt/format.h>
 
@@ -24,11 +27,18 @@ namespace gen4d::diagnose {
 
 namespace {
 
-//! F = sum_l x_l (x) grad N_l at one Gauss point (g: the gradients there, 1/m).
-inline void grad_at(const double (&g)[8][3], const double x[8][3], double F[9]) {
+//! Shape functions of the element: the 8 trilinear corners, then the 3 incompatible (bubble)
+//! modes 4 xi_i (1 - xi_i) of Wilson and Taylor, one per axis, whose amplitudes are condensed
+//! per element. With them the voxel bends like the beam it is (the trilinear hexahedron with
+//! full integration locks in shear: it is stiffer in bending, the more so in higher modes).
+constexpr int kShapes = 11;
+
+//! F = sum_l x_l (x) grad N_l at one Gauss point (g: the gradients there, 1/m; the bubbles'
+//! "positions" x_8..10 are their amplitudes).
+inline void grad_at(const double (&g)[kShapes][3], const double x[kShapes][3], double F[9]) {
   for (int a = 0; a < 3; ++a) {
     double f0 = 0, f1 = 0, f2 = 0;
-    for (int l = 0; l < 8; ++l) {
+    for (int l = 0; l < kShapes; ++l) {
       f0 += x[l][a] * g[l][0];
       f1 += x[l][a] * g[l][1];
       f2 += x[l][a] * g[l][2];
@@ -38,8 +48,9 @@ inline void grad_at(const double (&g)[8][3], const double x[8][3], double F[9]) 
 }
 
 //! fe_l += w P grad N_l at one Gauss point (w: its volume, m^3).
-inline void scatter_at(const double (&g)[8][3], const double P[9], double w, double fe[8][3]) {
-  for (int l = 0; l < 8; ++l)
+inline void scatter_at(const double (&g)[kShapes][3], const double P[9], double w,
+                       double fe[kShapes][3]) {
+  for (int l = 0; l < kShapes; ++l)
     for (int a = 0; a < 3; ++a)
       fe[l][a] += w * (P[3 * a] * g[l][0] + P[3 * a + 1] * g[l][1] + P[3 * a + 2] * g[l][2]);
 }
@@ -47,10 +58,38 @@ inline void scatter_at(const double (&g)[8][3], const double P[9], double w, dou
 using elastogen::HexStencil;
 using SpMat = Eigen::SparseMatrix<double>;
 
+//! Gradients (unit cube) of the element's shape functions at its 8 Gauss points: the trilinear
+//! corners of HexStencil, then the bubbles 4 xi_i (1 - xi_i), whose gradient is along axis i.
+//! The bubbles' gradients sum to zero over the Gauss points, so a constant stress does no work
+//! on them and the element passes the patch test.
+struct ElementStencil {
+  double dN[8][kShapes][3];
+  static const ElementStencil& get() {
+    static const ElementStencil s;
+    return s;
+  }
+
+ private:
+  ElementStencil() {
+    const HexStencil& S = HexStencil::get();
+    const double g[2] = {0.5 - 0.5 / std::sqrt(3.0), 0.5 + 0.5 / std::sqrt(3.0)};
+    for (int q = 0; q < 8; ++q) {
+      for (int l = 0; l < 8; ++l)
+        for (int c = 0; c < 3; ++c) dN[q][l][c] = S.dN[q][l][c];
+      const double xi[3] = {g[q & 1], g[(q >> 1) & 1], g[(q >> 2) & 1]};
+      for (int i = 0; i < 3; ++i)
+        for (int c = 0; c < 3; ++c) dN[q][8 + i][c] = c == i ? 4.0 * (1.0 - 2.0 * xi[i]) : 0.0;
+    }
+  }
+};
+
+constexpr int kDof = 3 * kShapes;  // 24 nodal + 9 bubble amplitudes
+using ElemMat = Eigen::Matrix<double, kDof, kDof>;
+
 //! Unit-cube element stiffness of linear elasticity, split by Lame parameter:
-//! K = h (lambda KL + mu KM), dof (node l, axis a) -> 3 l + a.
+//! K = h (lambda KL + mu KM), dof (shape l, axis a) -> 3 l + a.
 struct UnitStiffness {
-  double KL[24][24], KM[24][24];
+  ElemMat KL, KM;
   static const UnitStiffness& get() {
     static const UnitStiffness s;
     return s;
@@ -58,10 +97,10 @@ struct UnitStiffness {
 
  private:
   UnitStiffness() {
-    const HexStencil& S = HexStencil::get();
-    for (int l = 0; l < 8; ++l)
+    const ElementStencil& S = ElementStencil::get();
+    for (int l = 0; l < kShapes; ++l)
       for (int a = 0; a < 3; ++a)
-        for (int m = 0; m < 8; ++m)
+        for (int m = 0; m < kShapes; ++m)
           for (int b = 0; b < 3; ++b) {
             double kl = 0, km = 0;
             for (int q = 0; q < 8; ++q) {
@@ -71,11 +110,30 @@ struct UnitStiffness {
               km += 0.125 * ((a == b ? gl[0] * gm[0] + gl[1] * gm[1] + gl[2] * gm[2] : 0.0) +
                              gl[b] * gm[a]);
             }
-            KL[3 * l + a][3 * m + b] = kl;
-            KM[3 * l + a][3 * m + b] = km;
+            KL(3 * l + a, 3 * m + b) = kl;
+            KM(3 * l + a, 3 * m + b) = km;
           }
   }
 };
+
+//! Static condensation of the bubble amplitudes (massless, element-local) from an element
+//! matrix [Kuu Kua; Kau Kaa]: Kc = Kuu - Kua Kaa^-1 Kau, and what the amplitudes' update needs,
+//! L = Kaa^-1 Kau and Kaa^-1. False when Kaa is singular (it may be indefinite: the tangent
+//! of a compressed plastic state is).
+struct Condensed {
+  Eigen::Matrix<double, 24, 24> Kc;
+  Eigen::Matrix<double, 9, 24> L;
+  Eigen::Matrix<double, 9, 9> Kinv;
+};
+bool condense(const ElemMat& K, Condensed& c) {
+  const Eigen::Matrix<double, 9, 9> Kaa = K.block<9, 9>(24, 24);
+  const Eigen::FullPivLU<Eigen::Matrix<double, 9, 9>> lu(Kaa);
+  if (!lu.isInvertible()) return false;
+  c.Kinv = lu.inverse();
+  c.L = c.Kinv * K.block<9, 24>(24, 0);
+  c.Kc = K.block<24, 24>(0, 0) - K.block<24, 9>(0, 24) * c.L;
+  return true;
+}
 
 double mises(const double tau[9]) {
   const double p = (tau[0] + tau[4] + tau[8]) / 3.0;
@@ -373,12 +431,34 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     for (std::size_t v = 0; v < nv; ++v)
       if (ph.region.contains(voxel_center(v))) vfac[v] = ph.region_factor;
 
-  // Linear stiffness at rest, K0, on the free dofs.
-  const UnitStiffness& U = UnitStiffness::get();
+  // Linear stiffness at rest, K0, on the free dofs, the bubbles condensed per element (the
+  // same for every voxel up to its stiffness factor). Per voxel: L = Kaa^-1 Kau and Kaa^-1 of
+  // the matrix last factored, for the bubbles' update after each global solve.
+  const bool bubbles = ph.element == Element::incompatible;
+  Condensed c0;
+  {
+    const UnitStiffness& U = UnitStiffness::get();
+    const ElemMat K0e = h * (lambda0 * U.KL + mu0 * U.KM);
+    if (bubbles) {
+      if (!condense(K0e, c0)) {
+        tr.ok = false;
+        tr.failure = "the element's bubble stiffness is singular";
+        return tr;
+      }
+    } else {
+      c0.Kc = K0e.block<24, 24>(0, 0);
+    }
+  }
+  std::vector<Eigen::Matrix<double, 9, 24>> condL;
+  std::vector<Eigen::Matrix<double, 9, 9>> condKinv;
+  if (bubbles) {
+    condL.assign(nv, c0.L);
+    condKinv.resize(nv);
+    for (std::size_t v = 0; v < nv; ++v) condKinv[v] = c0.Kinv / vfac[v];
+  }
   std::vector<Eigen::Triplet<double>> trip;
   trip.reserve(nv * 576);
   for (std::size_t v = 0; v < nv; ++v) {
-    const double sl = h * lambda0 * vfac[v], sm = h * mu0 * vfac[v];
     for (int l = 0; l < 8; ++l) {
       const int dl = dof[static_cast<std::size_t>(vox_node_[v][l])];
       if (dl < 0) continue;
@@ -387,18 +467,51 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
         if (dm < 0) continue;
         for (int a = 0; a < 3; ++a)
           for (int b = 0; b < 3; ++b)
-            trip.emplace_back(dl + a, dm + b,
-                              sl * U.KL[3 * l + a][3 * m + b] + sm * U.KM[3 * l + a][3 * m + b]);
+            trip.emplace_back(dl + a, dm + b, vfac[v] * c0.Kc(3 * l + a, 3 * m + b));
       }
     }
   }
   SpMat K0(ndof, ndof);
   K0.setFromTriplets(trip.begin(), trip.end());
-  Eigen::VectorXd M(ndof), Cd(ndof), Ks(ndof);  // lumped mass, diagonal damping, springs
+  // Mass: lumped (a diagonal, M), or Mc = theta consistent + (1 - theta) lumped, the
+  // consistent part the trilinear shape functions' integral (the bubbles carry no mass).
+  // Mass-proportional damping uses the same matrix; Cd is the diagonal rest (air drag, clamp
+  // dashpots), Ks the clamp springs.
+  Eigen::VectorXd M(ndof), Cd(ndof), Ks(ndof);
+  const double theta = std::clamp(ph.consistent_mass_fraction, 0.0, 1.0);
+  const bool consistent = theta > 0;
+  SpMat Mc;
+  if (consistent) {
+    double me[8][8];
+    for (int l = 0; l < 8; ++l)
+      for (int m = 0; m < 8; ++m) {
+        double w = theta * ph.density * h * h * h;
+        for (int d = 0; d < 3; ++d) w *= ((l >> d) & 1) == ((m >> d) & 1) ? 1.0 / 3.0 : 1.0 / 6.0;
+        me[l][m] = w;
+      }
+    std::vector<Eigen::Triplet<double>> tm;
+    tm.reserve(nv * 192 + 3 * nn);
+    for (std::size_t n = 0; n < nn; ++n)
+      if (dof[n] >= 0)
+        for (int a = 0; a < 3; ++a)
+          tm.emplace_back(dof[n] + a, dof[n] + a, (1 - theta) * mass_[n] * ph.density);
+    for (std::size_t v = 0; v < nv; ++v)
+      for (int l = 0; l < 8; ++l) {
+        const int dl = dof[static_cast<std::size_t>(vox_node_[v][l])];
+        if (dl < 0) continue;
+        for (int m = 0; m < 8; ++m) {
+          const int dm = dof[static_cast<std::size_t>(vox_node_[v][m])];
+          if (dm >= 0)
+            for (int a = 0; a < 3; ++a) tm.emplace_back(dl + a, dm + a, me[l][m]);
+        }
+      }
+    Mc.resize(ndof, ndof);
+    Mc.setFromTriplets(tm.begin(), tm.end());
+  }
   for (std::size_t n = 0; n < nn; ++n) {
     if (dof[n] < 0) continue;
     const double m = mass_[n] * ph.density;
-    double c = ph.rayleigh_alpha * m + ph.drag_linear * area_[n];
+    double c = ph.drag_linear * area_[n];
     double k = 0;
     if (fixed_[n]) {
       k = ph.clamp_stiffness * clamp_area_[n];
@@ -420,11 +533,14 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   // Step matrix A = diag(ca M + cv C + springs) + (1 + cv beta) Kt (+ contact penalties); Kt
   // starts as K0 and is replaced by the tangent at the current state when Newton slows down
   // (the viscous stress of stiffness damping has about beta cv times its elastic tangent).
-  SpMat diagA(ndof, ndof);
+  SpMat diagA(ndof, ndof);  // (ca + cv alpha) M + cv Cd + Ks
   {
+    const double cm = ca + cv * ph.rayleigh_alpha;
     std::vector<Eigen::Triplet<double>> d;
-    for (int i = 0; i < ndof; ++i) d.emplace_back(i, i, ca * M[i] + cv * Cd[i] + Ks[i]);
+    for (int i = 0; i < ndof; ++i)
+      d.emplace_back(i, i, (consistent ? 0.0 : cm * M[i]) + cv * Cd[i] + Ks[i]);
     diagA.setFromTriplets(d.begin(), d.end());
+    if (consistent) diagA += cm * Mc;
   }
   SpMat Kt = K0;
   BlockLDLT solver;
@@ -472,8 +588,12 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
 
   std::vector<double> u(3 * nn, 0.0), v(3 * nn, 0.0), a(3 * nn, 0.0);
   std::vector<double> u1(3 * nn), v1(3 * nn), a1(3 * nn);
-  Eigen::VectorXd R(ndof), du(ndof);
-  const HexStencil& S = HexStencil::get();
+  // Bubble amplitudes per voxel (9: axis i, component d at 3 i + d), their rates (trapezoidal,
+  // for the viscous stress), trial values, and their residual (element-local equations).
+  std::vector<double> al(bubbles ? 9 * nv : 0, 0.0), ald(al.size(), 0.0), al1(al.size()),
+      ald1(al.size()), ral(al.size());
+  Eigen::VectorXd R(ndof), du(ndof), wa(ndof), Mwa(ndof);
+  const ElementStencil& S = ElementStencil::get();
   double step_max_mises = 0;
 
   // Stress of the elastic law, and of the plastic return map from the state at the start of
@@ -499,11 +619,12 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     return true;
   };
 
-  // Shape-function gradients in physical units (1/m) at the 8 Gauss points.
-  double G[8][8][3];
+  // Shape-function gradients in physical units (1/m) at the 8 Gauss points (the bubbles' are
+  // zero for the plain trilinear element, whose amplitudes stay zero).
+  double G[8][kShapes][3];
   for (int q = 0; q < 8; ++q)
-    for (int l = 0; l < 8; ++l)
-      for (int c = 0; c < 3; ++c) G[q][l][c] = S.dN[q][l][c] / h;
+    for (int l = 0; l < kShapes; ++l)
+      for (int c = 0; c < 3; ++c) G[q][l][c] = (l < 8 || bubbles) ? S.dN[q][l][c] / h : 0.0;
 
   // Internal force of the state u1 into f (3 per node); trial constitutive states.
   std::vector<double> fint(3 * nn);
@@ -515,13 +636,18 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     std::fill(fint.begin(), fint.end(), 0.0);
     if (with_mises) step_max_mises = 0;
     for (std::size_t vx = 0; vx < nv; ++vx) {
-      double xe[8][3], ve[8][3], fe[8][3] = {};
+      double xe[kShapes][3] = {}, ve[kShapes][3] = {}, fe[kShapes][3] = {};
       for (int l = 0; l < 8; ++l) {
         const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
         for (int d = 0; d < 3; ++d) xe[l][d] = X_[n][d] + u1[3 * n + d];
         if (kelvin_voigt)  // nodal velocities only for the viscous stress
           for (int d = 0; d < 3; ++d) ve[l][d] = v1[3 * n + d];
       }
+      if (bubbles)
+        for (int i = 0; i < 9; ++i) {
+          xe[8 + i / 3][i % 3] = al1[9 * vx + static_cast<std::size_t>(i)];
+          ve[8 + i / 3][i % 3] = ald1[9 * vx + static_cast<std::size_t>(i)];
+        }
       for (int q = 0; q < 8; ++q) {
         const std::size_t g = 8 * vx + static_cast<std::size_t>(q);
         double F[9], P[9], tau[9];
@@ -576,6 +702,9 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
         const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
         for (int i = 0; i < 3; ++i) fint[3 * n + i] += fe[l][i];
       }
+      if (bubbles)
+        for (int i = 0; i < 9; ++i)
+          ral[9 * vx + static_cast<std::size_t>(i)] = fe[8 + i / 3][i % 3];
     }
     return true;
   };
@@ -583,18 +712,23 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   // Tangent stiffness at u1: dP/dF of the law (with plasticity: of the return map from the
   // step's start) by central differences per Gauss point (symmetrised), scaled like the stress
   // (region factor, relaxed viscous part).
-  auto tangent = [&] {
+  auto tangent = [&]() -> bool {
     PhaseTimer timer(tr.time_tangent);
     std::vector<Eigen::Triplet<double>> tk;
     tk.reserve(nv * 576);
     const double vscale = visco ? 1.0 - ph.prony_g * rv / (1.0 + rv) : 1.0;
+    const int nshape = bubbles ? kShapes : 8;
+    Condensed ce;
     for (std::size_t vx = 0; vx < nv; ++vx) {
-      double xe[8][3];
+      double xe[kShapes][3] = {};
       for (int l = 0; l < 8; ++l) {
         const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
         for (int d = 0; d < 3; ++d) xe[l][d] = X_[n][d] + u1[3 * n + d];
       }
-      double Ke[24][24] = {};
+      if (bubbles)
+        for (int i = 0; i < 9; ++i)
+          xe[8 + i / 3][i % 3] = al1[9 * vx + static_cast<std::size_t>(i)];
+      ElemMat Ke = ElemMat::Zero();
       for (int q = 0; q < 8; ++q) {
         double F[9], D[9][9];
         grad_at(G[q], xe, F);
@@ -618,8 +752,8 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
         }
         const double w = h / 8.0 * vfac[vx] * vscale;  // h^3 / 8 * (1/h)^2
         // T[l][a][b][e] = sum_c dN_l,c Dsym[ac][be]; Ke[la][mb] += w sum_e T dN_m,e
-        double T[8][3][3][3];
-        for (int l = 0; l < 8; ++l)
+        double T[kShapes][3][3][3];
+        for (int l = 0; l < nshape; ++l)
           for (int a = 0; a < 3; ++a)
             for (int b = 0; b < 3; ++b)
               for (int e = 0; e < 3; ++e) {
@@ -628,13 +762,20 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
                   t += S.dN[q][l][c] * 0.5 * (D[3 * a + c][3 * b + e] + D[3 * b + e][3 * a + c]);
                 T[l][a][b][e] = w * t;
               }
-        for (int l = 0; l < 8; ++l)
+        for (int l = 0; l < nshape; ++l)
           for (int a = 0; a < 3; ++a)
-            for (int m = 0; m < 8; ++m)
+            for (int m = 0; m < nshape; ++m)
               for (int b = 0; b < 3; ++b)
-                Ke[3 * l + a][3 * m + b] += T[l][a][b][0] * S.dN[q][m][0] +
+                Ke(3 * l + a, 3 * m + b) += T[l][a][b][0] * S.dN[q][m][0] +
                                             T[l][a][b][1] * S.dN[q][m][1] +
                                             T[l][a][b][2] * S.dN[q][m][2];
+      }
+      if (bubbles) {
+        if (!condense(Ke, ce)) return false;
+        condL[vx] = ce.L;
+        condKinv[vx] = ce.Kinv;
+      } else {
+        ce.Kc = Ke.block<24, 24>(0, 0);
       }
       for (int l = 0; l < 8; ++l) {
         const int dl = dof[static_cast<std::size_t>(vox_node_[vx][l])];
@@ -643,11 +784,13 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
           const int dm = dof[static_cast<std::size_t>(vox_node_[vx][m])];
           if (dm < 0) continue;
           for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b) tk.emplace_back(dl + a, dm + b, Ke[3 * l + a][3 * m + b]);
+            for (int b = 0; b < 3; ++b)
+              tk.emplace_back(dl + a, dm + b, ce.Kc(3 * l + a, 3 * m + b));
         }
       }
     }
     Kt.setFromTriplets(tk.begin(), tk.end());
+    return true;
   };
 
   // Sampling: the nodes any channel reads, stored per step.
@@ -681,23 +824,51 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     if (!fixed_[n])
       for (std::size_t r = 0; r < cfg_.forces.size(); ++r)
         if (cfg_.forces[r].region.contains(X_[n])) region_mass[r] += mass_[n];
+  // A force switched on or off exactly at a step time counts half there (the mean of its
+  // one-sided limits): the trapezoidal rule then delivers the pulse's exact impulse. Counting
+  // it fully (or not at all) at its end adds (or drops) half a step of impulse; on a 0.3 s
+  // pulse with dt = 2 ms that changed a cantilever's free swing by 5 %. A force that starts
+  // at t = 0 acts fully from the initial state.
+  const double t_tol = 1e-6 * dt;
+  auto on_fraction = [&](const ForceConfig& fc, double t) {
+    const bool at_start = std::abs(t - fc.start) <= t_tol && fc.start > 0;
+    const bool at_end = std::abs(t - fc.end) <= t_tol;
+    if (at_start && at_end) return 0.0;
+    if (at_start || at_end) return 0.5;
+    return (t >= fc.start && t < fc.end) ? 1.0 : 0.0;
+  };
   auto external = [&](double t, std::size_t n, double f[3]) {
     const double m = mass_[n] * ph.density;
     for (int d = 0; d < 3; ++d) f[d] = m * ph.gravity[d];
     if (fixed_[n]) return;
     for (std::size_t r = 0; r < cfg_.forces.size(); ++r) {
       const ForceConfig& fc = cfg_.forces[r];
-      if (t < fc.start || t >= fc.end || region_mass[r] == 0.0 || !fc.region.contains(X_[n]))
-        continue;
-      for (int d = 0; d < 3; ++d) f[d] += ph.load_scale * fc.force[d] * mass_[n] / region_mass[r];
+      if (region_mass[r] == 0.0 || !fc.region.contains(X_[n])) continue;
+      const double on = on_fraction(fc, t);
+      if (on == 0.0) continue;
+      for (int d = 0; d < 3; ++d)
+        f[d] += on * ph.load_scale * fc.force[d] * mass_[n] / region_mass[r];
     }
   };
   // Initial acceleration from rest: M a0 = f_ext(0) - f_int(X) (= f_ext(0)).
-  for (std::size_t n = 0; n < nn; ++n) {
-    if (dof[n] < 0) continue;
-    double f[3];
-    external(0.0, n, f);
-    for (int d = 0; d < 3; ++d) a[3 * n + d] = f[d] / (mass_[n] * ph.density);
+  {
+    Eigen::VectorXd f0(ndof), a0(ndof);
+    for (std::size_t n = 0; n < nn; ++n) {
+      if (dof[n] < 0) continue;
+      double f[3];
+      external(0.0, n, f);
+      for (int d = 0; d < 3; ++d) f0[dof[n] + d] = f[d];
+    }
+    if (consistent) {
+      Eigen::ConjugateGradient<SpMat, Eigen::Lower | Eigen::Upper> cg(Mc);
+      cg.setTolerance(1e-14);
+      a0 = cg.solve(f0);
+    } else {
+      a0 = f0.cwiseQuotient(M);
+    }
+    for (std::size_t n = 0; n < nn; ++n)
+      if (dof[n] >= 0)
+        for (int d = 0; d < 3; ++d) a[3 * n + d] = a0[dof[n] + d];
   }
   record(0);
   std::vector<double> a_prev = a;
@@ -707,87 +878,153 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     // Predictor: the trapezoidal update with a1 guessed as the mean of the last two
     // accelerations (smooth motion continues; a high mode that flips sign each step averages
     // out instead of being doubled).
-    for (std::size_t i = 0; i < 3 * nn; ++i)
-      u1[i] = u[i] + dt * v[i] + 0.25 * dt * dt * (a[i] + 0.5 * (a[i] + a_prev[i]));
-    bool converged = false, refresh = false;
-    double dmax_prev = 0;
-    for (int it = 0; it < 60; ++it) {
-      for (std::size_t i = 0; i < 3 * nn; ++i) {
-        a1[i] = ca * (u1[i] - u[i] - dt * v[i]) - a[i];
-        v1[i] = v[i] + 0.5 * dt * (a[i] + a1[i]);
-      }
-      if (!internal(it == 0)) break;
-      // Contact set at this iterate.
-      bool changed = false;
-      for (std::size_t n = 0; n < nn && it < 8; ++n) {  // then the contact set stays fixed
-        if (dof[n] < 0) continue;
-        for (std::size_t p = 0; p < planes.size(); ++p) {
-          double gap = 0;
-          for (int d = 0; d < 3; ++d)
-            gap += (X_[n][d] + u1[3 * n + d] - planes[p].p[d]) * planes[p].n[d];
-          const char act = gap < 0;
-          if (act != active[n * planes.size() + p])
-            active[n * planes.size() + p] = act, changed = true;
+    // The bubbles follow the predicted nodes through the condensed relation (their equations
+    // held at the end of the last step): alpha1 = alpha - L (u1 - u); or stay (retry).
+    auto predict = [&](bool bubbles_follow) {
+      for (std::size_t i = 0; i < 3 * nn; ++i)
+        u1[i] = u[i] + dt * v[i] + 0.25 * dt * dt * (a[i] + 0.5 * (a[i] + a_prev[i]));
+      for (std::size_t vx = 0; vx < al.size() / 9; ++vx) {
+        Eigen::Matrix<double, 24, 1> due;
+        for (int l = 0; l < 8; ++l) {
+          const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
+          for (int d = 0; d < 3; ++d) due[3 * l + d] = u1[3 * n + d] - u[3 * n + d];
         }
+        Eigen::Map<Eigen::Matrix<double, 9, 1>> a1v(&al1[9 * vx]);
+        a1v = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(&al[9 * vx]);
+        if (bubbles_follow) a1v -= condL[vx] * due;
       }
-      if (refresh) tangent();
-      if ((changed || refresh) && !factor()) break;
-      refresh = false;
-      // Residual of the free dofs (stiffness damping is a stress, in fint).
-      for (std::size_t n = 0; n < nn; ++n) {
-        if (dof[n] < 0) continue;
-        double f[3];
-        external(t1, n, f);
-        const int i0 = dof[n];
-        const double m = mass_[n] * ph.density;
-        const double* vn = &v1[3 * n];
-        const double speed = std::sqrt(vn[0] * vn[0] + vn[1] * vn[1] + vn[2] * vn[2]);
-        // Dry friction acts against the velocity at the start of the step (explicit in its
-        // direction, capped so it can at most stop the node): stable at any dt.
-        const double* v0 = &v[3 * n];
-        const double speed0 = std::sqrt(v0[0] * v0[0] + v0[1] * v0[1] + v0[2] * v0[2]);
-        for (int d = 0; d < 3; ++d) {
-          double r = M[i0 + d] * a1[3 * n + d] + Cd[i0 + d] * vn[d] + fint[3 * n + d] - f[d] +
-                     Ks[i0 + d] * u1[3 * n + d];
-          if (ph.drag_quadratic != 0) r += ph.drag_quadratic * area_[n] * speed * vn[d];
-          if (ph.coulomb_accel != 0 && speed0 > 0)  // lagged direction, cannot reverse motion
-            r += std::min(m * ph.coulomb_accel, m * speed0 / dt) * v0[d] / speed0;
-          R[i0 + d] = r;
+    };
+    predict(true);
+    // Newton with a lagged tangent; if it diverges (with plastic unloading, a stale bubble
+    // stiffness can over-correct the bubbles) or stalls, the step starts again from the
+    // predictor with the tangent rebuilt at every iterate.
+    bool converged = false, refresh = false, full_newton = false;
+    for (int attempt = 0; attempt < 2 && !converged; ++attempt) {
+      if (attempt == 1) {
+        full_newton = refresh = true;
+        predict(false);
+        ++tr.restarts;
+      }
+      double dmax_prev = 0;
+      for (int it = 0; it < 60; ++it) {
+        for (std::size_t i = 0; i < 3 * nn; ++i) {
+          a1[i] = ca * (u1[i] - u[i] - dt * v[i]) - a[i];
+          v1[i] = v[i] + 0.5 * dt * (a[i] + a1[i]);
         }
-        for (std::size_t p = 0; p < planes.size(); ++p) {
-          if (!active[n * planes.size() + p]) continue;
-          const Plane& pl = planes[p];
-          double gap = 0;
-          for (int d = 0; d < 3; ++d) gap += (X_[n][d] + u1[3 * n + d] - pl.p[d]) * pl.n[d];
-          const double fn = -k_pen * gap;  // >= 0, along n
-          double vt[3], vt2 = 0, v0n = 0;
-          for (int d = 0; d < 3; ++d) v0n += v0[d] * pl.n[d];
-          for (int d = 0; d < 3; ++d) vt[d] = v0[d] - v0n * pl.n[d], vt2 += vt[d] * vt[d];
-          const double vt_norm = std::sqrt(vt2);
-          const double ft = vt_norm > 0 ? std::min(pl.mu * fn, m * vt_norm / dt) / vt_norm : 0.0;
-          for (int d = 0; d < 3; ++d) R[i0 + d] -= fn * pl.n[d] - ft * vt[d];
-        }
-      }
-      {
-        PhaseTimer timer(tr.time_solve);
-        solver.solve(R, du);  // the correction is -du
-      }
-      double dmax = 0;
-      for (std::size_t n = 0; n < nn; ++n)
-        if (dof[n] >= 0)
-          for (int d = 0; d < 3; ++d) {
-            u1[3 * n + d] -= du[dof[n] + d];
-            dmax = std::max(dmax, std::abs(du[dof[n] + d]));
+        for (std::size_t i = 0; i < al.size(); ++i) ald1[i] = cv * (al1[i] - al[i]) - ald[i];
+        if (!internal(it == 0)) break;
+        // Contact set at this iterate.
+        bool changed = false;
+        for (std::size_t n = 0; n < nn && it < 8; ++n) {  // then the contact set stays fixed
+          if (dof[n] < 0) continue;
+          for (std::size_t p = 0; p < planes.size(); ++p) {
+            double gap = 0;
+            for (int d = 0; d < 3; ++d)
+              gap += (X_[n][d] + u1[3 * n + d] - planes[p].p[d]) * planes[p].n[d];
+            const char act = gap < 0;
+            if (act != active[n * planes.size() + p])
+              active[n * planes.size() + p] = act, changed = true;
           }
-      ++tr.newton_iterations;
-      if (!std::isfinite(dmax)) break;
-      if (dmax < tol_du) {
-        converged = true;
-        break;
+        }
+        if (refresh && !tangent()) break;
+        if ((changed || refresh) && !factor()) break;
+        refresh = false;
+        // Residual of the free dofs (stiffness damping is a stress, in fint); inertia and mass
+        // damping: M (a1 + alpha v1).
+        for (std::size_t n = 0; n < nn; ++n)
+          if (dof[n] >= 0)
+            for (int d = 0; d < 3; ++d)
+              wa[dof[n] + d] = a1[3 * n + d] + ph.rayleigh_alpha * v1[3 * n + d];
+        if (consistent)
+          Mwa.noalias() = Mc * wa;
+        else
+          Mwa = M.cwiseProduct(wa);
+        for (std::size_t n = 0; n < nn; ++n) {
+          if (dof[n] < 0) continue;
+          double f[3];
+          external(t1, n, f);
+          const int i0 = dof[n];
+          const double m = mass_[n] * ph.density;
+          const double* vn = &v1[3 * n];
+          const double speed = std::sqrt(vn[0] * vn[0] + vn[1] * vn[1] + vn[2] * vn[2]);
+          // Dry friction acts against the velocity at the start of the step (explicit in its
+          // direction, capped so it can at most stop the node): stable at any dt.
+          const double* v0 = &v[3 * n];
+          const double speed0 = std::sqrt(v0[0] * v0[0] + v0[1] * v0[1] + v0[2] * v0[2]);
+          for (int d = 0; d < 3; ++d) {
+            double r = Mwa[i0 + d] + Cd[i0 + d] * vn[d] + fint[3 * n + d] - f[d] +
+                       Ks[i0 + d] * u1[3 * n + d];
+            if (ph.drag_quadratic != 0) r += ph.drag_quadratic * area_[n] * speed * vn[d];
+            if (ph.coulomb_accel != 0 && speed0 > 0)  // lagged direction, cannot reverse motion
+              r += std::min(m * ph.coulomb_accel, m * speed0 / dt) * v0[d] / speed0;
+            R[i0 + d] = r;
+          }
+          for (std::size_t p = 0; p < planes.size(); ++p) {
+            if (!active[n * planes.size() + p]) continue;
+            const Plane& pl = planes[p];
+            double gap = 0;
+            for (int d = 0; d < 3; ++d) gap += (X_[n][d] + u1[3 * n + d] - pl.p[d]) * pl.n[d];
+            const double fn = -k_pen * gap;  // >= 0, along n
+            double vt[3], vt2 = 0, v0n = 0;
+            for (int d = 0; d < 3; ++d) v0n += v0[d] * pl.n[d];
+            for (int d = 0; d < 3; ++d) vt[d] = v0[d] - v0n * pl.n[d], vt2 += vt[d] * vt[d];
+            const double vt_norm = std::sqrt(vt2);
+            const double ft = vt_norm > 0 ? std::min(pl.mu * fn, m * vt_norm / dt) / vt_norm : 0.0;
+            for (int d = 0; d < 3; ++d) R[i0 + d] -= fn * pl.n[d] - ft * vt[d];
+          }
+        }
+        // Condensed residual: the bubbles' residual r_a carried to the nodes, R - L^T r_a.
+        auto element_du = [&](std::size_t vx, Eigen::Matrix<double, 24, 1>& due) {
+          for (int l = 0; l < 8; ++l) {
+            const int dl = dof[static_cast<std::size_t>(vox_node_[vx][l])];
+            for (int d = 0; d < 3; ++d) due[3 * l + d] = dl >= 0 ? du[dl + d] : 0.0;
+          }
+        };
+        for (std::size_t vx = 0; vx < al.size() / 9; ++vx) {
+          const Eigen::Map<const Eigen::Matrix<double, 9, 1>> ra(&ral[9 * vx]);
+          const Eigen::Matrix<double, 24, 1> fr = condL[vx].transpose() * ra;
+          for (int l = 0; l < 8; ++l) {
+            const int dl = dof[static_cast<std::size_t>(vox_node_[vx][l])];
+            if (dl >= 0)
+              for (int d = 0; d < 3; ++d) R[dl + d] -= fr[3 * l + d];
+          }
+        }
+        {
+          PhaseTimer timer(tr.time_solve);
+          solver.solve(R, du);  // the correction is -du
+        }
+        double dmax = 0;
+        for (std::size_t n = 0; n < nn; ++n)
+          if (dof[n] >= 0)
+            for (int d = 0; d < 3; ++d) {
+              u1[3 * n + d] -= du[dof[n] + d];
+              dmax = std::max(dmax, std::abs(du[dof[n] + d]));
+            }
+        // Bubbles: delta alpha = -Kaa^-1 r_a - L delta u (delta u = -du); Kaa carries the step
+        // matrix's factor for stiffness damping like the rest of the tangent.
+        const double kscale = 1.0 / (1.0 + cv * ph.rayleigh_beta);
+        for (std::size_t vx = 0; vx < al.size() / 9; ++vx) {
+          Eigen::Matrix<double, 24, 1> due;
+          element_du(vx, due);
+          const Eigen::Map<const Eigen::Matrix<double, 9, 1>> ra(&ral[9 * vx]);
+          const Eigen::Matrix<double, 9, 1> da = condL[vx] * due - kscale * (condKinv[vx] * ra);
+          for (int i = 0; i < 9; ++i) {
+            al1[9 * vx + static_cast<std::size_t>(i)] += da[i];
+            dmax = std::max(dmax, std::abs(da[i]));
+          }
+        }
+        ++tr.newton_iterations;
+        if (!std::isfinite(dmax)) break;
+        if (dmax < tol_du) {
+          converged = true;
+          break;
+        }
+        if (attempt == 0 && it >= 1 && dmax > 2 * dmax_prev && dmax > 100 * tol_du) break;
+        // A stale tangent shows as slow contraction: rebuild it at the current state.
+        if ((full_newton && dmax > 0.1 * dmax_prev) || (it > 1 && dmax > 0.5 * dmax_prev))
+          refresh = true;
+        dmax_prev = dmax;
       }
-      // A stale tangent shows as slow contraction: rebuild it at the current state.
-      if (it > 1 && dmax > 0.5 * dmax_prev) refresh = true;
-      dmax_prev = dmax;
     }
     if (!converged) {
       tr.ok = false;
@@ -798,6 +1035,9 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
       a1[i] = ca * (u1[i] - u[i] - dt * v[i]) - a[i];
       v1[i] = v[i] + 0.5 * dt * (a[i] + a1[i]);
     }
+    for (std::size_t i = 0; i < al.size(); ++i) ald1[i] = cv * (al1[i] - al[i]) - ald[i];
+    al.swap(al1);
+    ald.swap(ald1);
     a_prev = a;
     u.swap(u1);
     v.swap(v1);

@@ -1,9 +1,12 @@
-//! The forward model of `gen4d diagnose`: the deck's voxelized body as trilinear hexahedra
-//! (the ElastoGen discretisation: same voxels, 2x2x2 Gauss points, lumped masses, the deck's
-//! material law), integrated by the trapezoidal rule (Newmark beta = 1/4, gamma = 1/2), which
-//! adds no numerical damping, so measured decay is physics. Every effect of the library is a
-//! term of this model that vanishes at its null value. One run is serial; diagnose spreads
-//! runs over ranks.
+//! The forward model of `gen4d diagnose`: the deck's voxelized body as hexahedra on the
+//! ElastoGen voxels (2x2x2 Gauss points, the deck's material law) enriched by Wilson-Taylor
+//! incompatible modes, with a half-consistent mass matrix, integrated by the trapezoidal rule
+//! (Newmark beta = 1/4, gamma = 1/2), which adds no numerical damping, so measured decay is
+//! physics. The enrichment and the mass matter against real data: with ElastoGen's plain
+//! trilinear voxels and lumped masses a 20x4x4 cantilever calibrated E 3.5 % low against
+//! CalculiX C3D20R (0.4 % with both) and its higher modes drifted out of phase.
+//! Every effect of the library is a term of this model that vanishes at its null value. One
+//! run is serial; diagnose spreads runs over ranks.
 #pragma once
 
 #include <array>
@@ -16,8 +19,19 @@
 
 namespace gen4d::diagnose {
 
+//! The voxel element: trilinear hexahedron with 2x2x2 Gauss points (ElastoGen's), or the same
+//! with Wilson-Taylor incompatible modes (three bubbles per voxel, condensed per element),
+//! which removes the trilinear element's shear locking in bending.
+enum class Element { trilinear, incompatible };
+
 //! The physics of one forward run: the deck's values plus every effect's parameters.
 struct Physics {
+  Element element = Element::incompatible;
+  //! Mass matrix: this fraction consistent (trilinear shape functions), the rest lumped. The
+  //! mean of the two cancels most of either's dispersion error (lumped masses lower the
+  //! frequencies of the higher modes, consistent ones raise them): against CalculiX C3D20R
+  //! on a 20x4x4 cantilever, 2 s, chi2 per sample 1.70 (lumped), 2.11 (consistent), 1.47 (0.5).
+  double consistent_mass_fraction = 0.5;
   std::string law;  //!< hyperelastic law: corotated | neo_hookean | stvk
   double youngs_modulus = 0, poisson_ratio = 0, density = 0;
   Vec3d gravity{0, 0, 0};
@@ -69,6 +83,7 @@ struct Trace {
   long steps = 0;
   long newton_iterations = 0;
   long factorizations = 0;
+  long restarts = 0;  //!< steps whose lagged-tangent Newton diverged and were redone
   //! Wall seconds by phase: internal forces, tangent assembly, factorization, back-substitution.
   double time_internal = 0, time_tangent = 0, time_factor = 0, time_solve = 0;
 };
