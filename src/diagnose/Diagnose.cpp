@@ -922,7 +922,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         // Each move is tried at the factor f' that keeps the region's added compliance
         // (1/f - 1) V (moving a face is a question of shape: at a fixed factor a larger box is
         // simply a softer body), with E rescaled so that the dominant frequency stays that of
-        // the current fit (else the phase error hides a better shape): two runs per move.
+        // the current fit (else the phase error hides a better shape), then refined by one
+        // Gauss-Newton step: four runs per move.
         std::vector<std::pair<BoxRegion, std::vector<double>>> tries;
         const BoxRegion keep = ctx.region;
         auto volume = [](const BoxRegion& b) {
@@ -949,11 +950,41 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         for (std::size_t i = 0; i < tries.size(); ++i)
           tries[i].second[0] = match_frequency(tries[i].second[0], w_fit, probe_b[i]);
         const auto pb_runs = run_tries();
+        // The matched frequency leaves a phase error that can hide a better shape (chi2 moves
+        // 10 % for 0.1 % of E over 7 periods): one Gauss-Newton step in log E per move, from
+        // a forward difference (two more runs per move).
+        const double dz = 1e-3;
+        std::vector<Eigen::VectorXd> r0(tries.size());
+        for (std::size_t i = 0; i < tries.size(); ++i) {
+          r0[i] = weighted_residual(obs, pb_runs[i], obs.train);
+          tries[i].second[0] += dz;
+        }
+        const auto pd_runs = run_tries();
+        std::vector<double> chi_matched(tries.size(), 1e300);
+        std::vector<std::vector<double>> z_matched(tries.size());
+        for (std::size_t i = 0; i < tries.size(); ++i) {
+          tries[i].second[0] -= dz;
+          z_matched[i] = tries[i].second;
+          if (!pb_runs[i].ok || !pd_runs[i].ok) continue;
+          chi_matched[i] = r0[i].squaredNorm();
+          const Eigen::VectorXd J = (weighted_residual(obs, pd_runs[i], obs.train) - r0[i]) / dz;
+          const double jj = J.squaredNorm();
+          if (jj > 0) tries[i].second[0] -= std::clamp(J.dot(r0[i]) / jj, -0.05, 0.05);
+        }
+        const auto pg_runs = run_tries();
         double best_chi = r.chi2;
         int pick = -1;
         for (std::size_t i = 0; i < tries.size(); ++i) {
-          if (!pb_runs[i].ok) continue;
-          const double ci = weighted_residual(obs, pb_runs[i], obs.train).squaredNorm();
+          double ci = chi_matched[i];
+          if (pg_runs[i].ok) {
+            const double cg = weighted_residual(obs, pg_runs[i], obs.train).squaredNorm();
+            if (cg < ci)
+              ci = cg;
+            else
+              tries[i].second = z_matched[i];
+          } else {
+            tries[i].second = z_matched[i];
+          }
           if (ci < best_chi) best_chi = ci, pick = static_cast<int>(i);
         }
         if (pick < 0 || best_chi > 0.995 * r.chi2) break;
