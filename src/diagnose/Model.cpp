@@ -3,7 +3,6 @@
 #include "diagnose/BlockLDLT.hpp"
 #include "diagnose/HenckyJ2.hpp"
 
-#include <Eigen/Cholesky>
 #include <Eigen/Dense>
 #include <Eigen/IterativeLinearSolvers>
 #include <Eigen/Sparse>
