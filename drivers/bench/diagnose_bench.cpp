@@ -7,8 +7,10 @@
 //              (one internal-force pass and one back-substitution);
 //   nominal    the case itself (8 cm tip motion: large rotations, a refreshed tangent);
 //   damping    with Rayleigh stiffness damping (beta = 2e-3 s), as the fits run it;
-//   plastic    with von Mises plasticity (yield 1.5 kPa), the slowest law.
-// Per run: wall seconds, steps, Newton iterations per step, factorizations, and the split
+//   corotated  the case with the fixed-corotated law (one SVD per stress);
+//   plastic    with von Mises plasticity (yield 10 kPa, hardening 20 kPa), the slowest law.
+// Per run: wall seconds, steps, Newton iterations per step, factorizations, steps redone
+// with fresh tangents (restarts), and the split
 // over phases (internal forces, tangent, factorization, back-substitution, rest). Each run
 // is timed twice: with the model's element (incompatible modes, half-consistent mass) and,
 // as the baseline in the same process, with the plain trilinear element and lumped masses
@@ -75,10 +77,11 @@ std::string json(const char* name, const Result& r) {
   const double rest = r.wall - t.time_internal - t.time_tangent - t.time_factor - t.time_solve;
   return fmt::format(
       "    \"{}\": {{\"wall_s\": {:.4f}, \"steps\": {}, \"newton_per_step\": {:.3f}, "
-      "\"factorizations\": {}, \"internal_s\": {:.4f}, \"tangent_s\": {:.4f}, "
+      "\"factorizations\": {}, \"restarts\": {}, \"internal_s\": {:.4f}, \"tangent_s\": {:.4f}, "
       "\"factor_s\": {:.4f}, \"solve_s\": {:.4f}, \"other_s\": {:.4f}}}",
       name, r.wall, t.steps, static_cast<double>(t.newton_iterations) / std::max(1L, t.steps),
-      t.factorizations, t.time_internal, t.time_tangent, t.time_factor, t.time_solve, rest);
+      t.factorizations, t.restarts, t.time_internal, t.time_tangent, t.time_factor, t.time_solve,
+      rest);
 }
 
 }  // namespace
@@ -114,6 +117,8 @@ int main(int argc, char** argv) {
         diagnose::Physics nominal = model.nominal();
         diagnose::Physics damped = nominal;
         damped.rayleigh_beta = 2e-3;
+        diagnose::Physics corotated = nominal;
+        corotated.law = "corotated";
         diagnose::Physics plastic = nominal;
         plastic.yield_stress = 1e4;
         plastic.hardening = 2e4;
@@ -122,11 +127,12 @@ int main(int argc, char** argv) {
           p.consistent_mass_fraction = 0;
           return p;
         };
-        const char* names[4] = {"baseline", "nominal", "damping", "plastic"};
-        const diagnose::Physics phys[4] = {base, nominal, damped, plastic};
+        constexpr int kRuns = 5;
+        const char* names[kRuns] = {"baseline", "nominal", "damping", "corotated", "plastic"};
+        const diagnose::Physics phys[kRuns] = {base, nominal, damped, corotated, plastic};
         std::string runs, old_runs, ratios;
-        double wall[4] = {};
-        for (int k = 0; k < 4; ++k) {
+        double wall[kRuns] = {};
+        for (int k = 0; k < kRuns; ++k) {
           const Result r = time_run(names[k], model, phys[k], req, repeat);
           const Result o = time_run(names[k], model, trilinear(phys[k]), req, repeat);
           wall[k] = r.wall;

@@ -48,6 +48,54 @@ struct FixedCorotated {
   }
   GEN4D_HD Mat3 pk1(const Mat3& F) const { return pk1(F, polar_rotation(F)); }
 
+  //! The stress Jacobian D[3i+j][3k+l] = dP_ij/dF_kl from one SVD (implicit solvers' tangent):
+  //!   dP = 2 mu (dF - dR) + lambda (cof F : dF) cof F + lambda (J - 1) d(cof F).
+  //! With F = R S (S = V diag(sigma) V^T symmetric) and W = R^T dR skew, the skew part of
+  //! R^T dF is W S + S W = [(tr S - S) w]x, so dR = R [w]x with w = (tr S - S)^-1 a, a the axial
+  //! vector of R^T dF - dF^T R, and (tr S - S)^-1 = V diag(1 / (sigma_j + sigma_k)) V^T. Where
+  //! sigma_j + sigma_k vanishes (an element flat-inverted in two directions) R has no
+  //! derivative; that direction's rotation term is dropped.
+  GEN4D_HD void pk1_jacobian(const Mat3& F, double D[9][9]) const {
+    Mat3 U, V;
+    Vec3 s;
+    svd3(F, U, s, V);
+    const Mat3 R = U * transpose(V);
+    const Mat3 C = cofactor(F);
+    const double J = det(F);
+    const double tiny = 1e-12 * (std::fabs(s[0]) + std::fabs(s[1]) + std::fabs(s[2]));
+    Vec3 inv;
+    for (int i = 0; i < 3; ++i) {
+      const double d = s[(i + 1) % 3] + s[(i + 2) % 3];
+      inv[i] = std::fabs(d) > tiny ? 1.0 / d : 0.0;
+    }
+    const Mat3 A = V * diag3(inv) * transpose(V);
+    for (int k = 0; k < 3; ++k)
+      for (int l = 0; l < 3; ++l) {
+        // M = R^T E_kl: M(a, b) = R(k, a) [b == l]; a = axial(M - M^T).
+        Vec3 m{{0, 0, 0}};
+        m[0] = (l == 1 ? R(k, 2) : 0.0) - (l == 2 ? R(k, 1) : 0.0);
+        m[1] = (l == 2 ? R(k, 0) : 0.0) - (l == 0 ? R(k, 2) : 0.0);
+        m[2] = (l == 0 ? R(k, 1) : 0.0) - (l == 1 ? R(k, 0) : 0.0);
+        const Vec3 w = A * m;
+        const Mat3 Wx{{0, -w[2], w[1], w[2], 0, -w[0], -w[1], w[0], 0}};
+        const Mat3 dR = R * Wx;
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) {
+            // d cof_ij / dF_kl = eps_ikn eps_jlq F_nq (zero unless i != k and j != l).
+            double dcof = 0;
+            if (i != k && j != l) {
+              const int n = 3 - i - k, q = 3 - j - l;
+              const double e1 = ((k - i + 3) % 3 == 1) ? 1.0 : -1.0;  // eps_ikn
+              const double e2 = ((l - j + 3) % 3 == 1) ? 1.0 : -1.0;  // eps_jlq
+              dcof = e1 * e2 * F(n, q);
+            }
+            const double dF = (i == k && j == l) ? 1.0 : 0.0;
+            D[3 * i + j][3 * k + l] =
+                2.0 * mu * (dF - dR(i, j)) + lambda * C(k, l) * C(i, j) + lambda * (J - 1.0) * dcof;
+          }
+      }
+  }
+
   //! Energy and stress from one SVD (the solver's per-quadrature-point call).
   GEN4D_HD double energy_and_pk1(const Mat3& F, Mat3& P) const {
     Mat3 U, V;

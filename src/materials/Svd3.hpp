@@ -143,6 +143,31 @@ GEN4D_HD inline Mat3 polar_rotation(const Mat3& F) {
   return U * transpose(V);
 }
 
+//! Rotation R of the polar decomposition F = R S by Higham's scaled Newton iteration
+//! X <- (g X + X^-T / g) / 2, g = (|X^-1|_F / |X|_F)^(1/2): a handful of 3x3 cofactor
+//! inversions instead of a Jacobi SVD (the implicit diagnose model calls it at every Gauss point
+//! of every Newton iterate). Equal to polar_rotation(F) to rounding where det F > 0. Returns
+//! false, R untouched, where F is inverted or nearly flat (det F <= 1e-6 |F|^3) or the iteration
+//! has not settled in 30 steps; callers then take polar_rotation (the signed SVD's rotation).
+GEN4D_HD inline bool polar_rotation_newton(const Mat3& F, Mat3& R) {
+  const double nF = frobenius_norm(F);
+  if (!(det(F) > 1e-6 * nF * nF * nF)) return false;
+  Mat3 X = F;
+  for (int it = 0; it < 30; ++it) {
+    const Mat3 C = cofactor(X);  // det(X) X^-T
+    const double d = det(X);
+    const double g = std::sqrt(frobenius_norm(C) / (d * frobenius_norm(X)));
+    const Mat3 Xn = (0.5 * g) * X + (0.5 / (g * d)) * C;
+    const double change = frobenius_norm(Xn - X);
+    X = Xn;
+    if (change <= 1e-14) {
+      R = X;
+      return true;
+    }
+  }
+  return false;
+}
+
 //! svd3 over n row-major 3x3 matrices stored back to back (9 doubles each, 3 per sigma).
 inline void svd3_batch(std::size_t n, const double* F, double* U, double* sigma, double* V) {
   for (std::size_t i = 0; i < n; ++i) {
