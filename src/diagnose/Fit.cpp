@@ -333,6 +333,13 @@ LsqResult least_squares(Evaluator& ev, const LsqProblem& prob, std::vector<doubl
   parallel::check(TaoSetObjectiveAndGradient(tao, nullptr, tao_objective_gradient, &c),
                   "TaoSetObjectiveAndGradient");
   parallel::check(TaoSetHessian(tao, H, H, tao_hessian, &c), "TaoSetHessian");
+  // Backtracking (Armijo) line search: a trial point costs one forward run (the objective),
+  // the Jacobian's n runs are spent only on the accepted one. TAO's default More-Thuente search
+  // asks for the gradient at every trial: near a fit's floor, where the Gauss-Newton step is
+  // cut again and again, that was (n + 1) runs per trial and over half of a refit's runs.
+  TaoLineSearch ls;
+  parallel::check(TaoGetLineSearch(tao, &ls), "TaoGetLineSearch");
+  parallel::check(TaoLineSearchSetType(ls, TAOLINESEARCHARMIJO), "TaoLineSearchSetType");
   parallel::check(TaoSetTolerances(tao, 1e-10, 1e-5, 1e-4), "TaoSetTolerances");
   parallel::check(TaoSetMaximumIterations(tao, max_iterations), "TaoSetMaximumIterations");
   // Line-search trial points count too: a fit costs at most this many objective evaluations.
