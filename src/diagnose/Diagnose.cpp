@@ -859,37 +859,72 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       // tried at the calibrated nu and at the deck's: the calibration bends nu to absorb the
       // missing effect too (to its bound on a beam with a soft section), and a refit
       // started there stays in that valley.
+      //
+      // A heterogeneity refit also starts from the body cut in quarters along its longest axis
+      // (at the deck's nu): the map's box is a linearisation at the calibrated state, which has
+      // absorbed the region into E and nu; a region stiffer than the rest (E x 2.8 at a
+      // cantilever's root) was located at the far side of the calibrated E, with the opposite
+      // factor, and the face moves cannot cross from there.
       const double w_cal = dominant_omega(obs, base.pred.y, t_free);
-      std::vector<double> nus = {z0[1]};
-      if (std::abs(D.poisson_nominal - z0[1]) > 0.02) nus.push_back(D.poisson_nominal);
-      std::vector<std::vector<double>> starts;
-      std::vector<Physics> batch_s;
-      for (double nu : nus)
-        for (double f : grid) {
-          std::vector<double> z = z0;
-          z[1] = nu;
-          z[2] = to_z(specs[0], std::clamp(f, specs[0].lo, specs[0].hi));
-          starts.push_back(z);
-          batch_s.push_back(pr.physics(z));
+      std::vector<BoxRegion> regions = {ctx.region};
+      if (c.effect == "heterogeneity") {
+        int ax = 0;
+        for (int a = 1; a < 3; ++a)
+          if (D.body.hi[a] - D.body.lo[a] > D.body.hi[ax] - D.body.lo[ax]) ax = a;
+        const double h = model.h(), len = D.body.hi[ax] - D.body.lo[ax];
+        for (int q = 0; q < 4; ++q) {
+          BoxRegion b = D.body;
+          b.lo[ax] = D.body.lo[ax] + h * std::round(q * len / (4 * h));
+          b.hi[ax] = D.body.lo[ax] + h * std::round((q + 1) * len / (4 * h));
+          const bool same = b.lo == ctx.region.lo && b.hi == ctx.region.hi;
+          if (b.hi[ax] - b.lo[ax] > 0.5 * h && !same) regions.push_back(b);
         }
+      }
+      const BoxRegion located = ctx.region;
+      std::vector<std::vector<double>> starts;
+      std::vector<std::size_t> start_region;
+      std::vector<Physics> batch_s;
+      for (std::size_t ri = 0; ri < regions.size(); ++ri) {
+        ctx.region = regions[ri];
+        std::vector<double> nus = {ri == 0 ? z0[1] : D.poisson_nominal};
+        if (ri == 0 && std::abs(D.poisson_nominal - z0[1]) > 0.02) nus.push_back(D.poisson_nominal);
+        for (double nu : nus)
+          for (double f : grid) {
+            std::vector<double> z = z0;
+            z[1] = nu;
+            z[2] = to_z(specs[0], std::clamp(f, specs[0].lo, specs[0].hi));
+            starts.push_back(z);
+            start_region.push_back(ri);
+            batch_s.push_back(pr.physics(z));
+          }
+      }
       const auto probe_s = ev.run(batch_s);
       batch_s.clear();
       for (std::size_t k = 0; k < starts.size(); ++k) {
         starts[k][0] = match_frequency(starts[k][0], w_cal, probe_s[k]);
+        ctx.region = regions[start_region[k]];
         batch_s.push_back(pr.physics(starts[k]));
       }
+      ctx.region = located;
       starts.push_back(z0);
+      start_region.push_back(0);
       batch_s.push_back(pr.physics(z0));
       const auto runs_s = ev.run(batch_s);
       double best_chi = 1e300;
+      std::size_t best_region = 0;
       for (std::size_t k = 0; k < starts.size(); ++k) {
         if (!runs_s[k].ok) continue;
         const double ck = weighted_residual(obs, runs_s[k], obs.train).squaredNorm();
-        if (ck < best_chi) best_chi = ck, z0 = starts[k];
+        if (ck < best_chi) best_chi = ck, z0 = starts[k], best_region = start_region[k];
       }
-      log::info("  {} start: E {:.4g} Pa, nu {:.3g}, {} {:.4g} (chi2 {:.4g}, best of {})", c.effect,
-                std::exp(z0[0]), z0[1], specs[0].name, from_z(specs[0], z0[2]), best_chi,
-                starts.size());
+      ctx.region = regions[best_region];
+      log::info(
+          "  {} start: E {:.4g} Pa, nu {:.3g}, {} {:.4g} (chi2 {:.4g}, best of {}){}", c.effect,
+          std::exp(z0[0]), z0[1], specs[0].name, from_z(specs[0], z0[2]), best_chi, starts.size(),
+          best_region == 0 ? std::string()
+                           : fmt::format(" in [{:.3g} {:.3g} {:.3g}]-[{:.3g} {:.3g} {:.3g}]",
+                                         ctx.region.lo[0], ctx.region.lo[1], ctx.region.lo[2],
+                                         ctx.region.hi[0], ctx.region.hi[1], ctx.region.hi[2]));
     }
     LsqResult r = least_squares(ev, pr, z0, opt.max_iterations, false);
     if (c.effect == "heterogeneity" && !r.abandoned) {
