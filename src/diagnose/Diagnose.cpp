@@ -859,27 +859,11 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       // tried at the calibrated nu and at the deck's: the calibration bends nu to absorb the
       // missing effect too (to its bound on a beam with a soft section), and a refit
       // started there stays in that valley.
-      //
-      // A heterogeneity refit also starts from the body cut in quarters along its longest axis
-      // (at the deck's nu): the map's box is a linearisation at the calibrated state, which has
-      // absorbed the region into E and nu; a region stiffer than the rest (E x 2.8 at a
-      // cantilever's root) was located at the far side of the calibrated E, with the opposite
-      // factor, and the face moves cannot cross from there.
+      // Effects whose region the map may miss also start from their start_regions().
       const double w_cal = dominant_omega(obs, base.pred.y, t_free);
       std::vector<BoxRegion> regions = {ctx.region};
-      if (c.effect == "heterogeneity") {
-        int ax = 0;
-        for (int a = 1; a < 3; ++a)
-          if (D.body.hi[a] - D.body.lo[a] > D.body.hi[ax] - D.body.lo[ax]) ax = a;
-        const double h = model.h(), len = D.body.hi[ax] - D.body.lo[ax];
-        for (int q = 0; q < 4; ++q) {
-          BoxRegion b = D.body;
-          b.lo[ax] = D.body.lo[ax] + h * std::round(q * len / (4 * h));
-          b.hi[ax] = D.body.lo[ax] + h * std::round((q + 1) * len / (4 * h));
-          const bool same = b.lo == ctx.region.lo && b.hi == ctx.region.hi;
-          if (b.hi[ax] - b.lo[ax] > 0.5 * h && !same) regions.push_back(b);
-        }
-      }
+      for (const BoxRegion& b : e.start_regions(ctx))
+        if (!(b.lo == ctx.region.lo && b.hi == ctx.region.hi)) regions.push_back(b);
       const BoxRegion located = ctx.region;
       std::vector<std::vector<double>> starts;
       std::vector<std::size_t> start_region;

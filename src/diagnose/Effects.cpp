@@ -171,6 +171,25 @@ class Heterogeneity final : public Effect {
   std::vector<double> frequency_grid(const EffectContext&, const std::string&) const override {
     return {0.2, 0.35, 0.5, 0.7, 1.5, 2.5};  // region stiffness factors
   }
+  // The body cut in quarters along its longest axis (snapped to voxels). The map's box is a
+  // linearisation at the calibrated state, which has absorbed the region into E and nu: a
+  // region stiffer than the rest (E x 2.8 at a cantilever's root) was located at the far side
+  // of the calibrated E, with the opposite factor, and the face moves cannot cross from there.
+  std::vector<BoxRegion> start_regions(const EffectContext& c) const override {
+    const BoxRegion body = c.model->bounds();
+    int ax = 0;
+    for (int a = 1; a < 3; ++a)
+      if (body.hi[a] - body.lo[a] > body.hi[ax] - body.lo[ax]) ax = a;
+    const double h = c.model->h(), len = body.hi[ax] - body.lo[ax];
+    std::vector<BoxRegion> out;
+    for (int q = 0; q < 4; ++q) {
+      BoxRegion b = body;
+      b.lo[ax] = body.lo[ax] + h * std::round(q * len / (4 * h));
+      b.hi[ax] = body.lo[ax] + h * std::round((q + 1) * len / (4 * h));
+      if (b.hi[ax] - b.lo[ax] > 0.5 * h) out.push_back(b);
+    }
+    return out;
+  }
 };
 
 //! Missing or misdirected gravity / body load.

@@ -75,6 +75,10 @@ class Effect {
   virtual std::vector<double> frequency_grid(const EffectContext&, const std::string&) const {
     return {};
   }
+  //! Regions (besides the located one, EffectContext::region) from which a refit with a
+  //! frequency grid also starts, each at the deck's nu: for effects whose region the
+  //! linearised stiffness map may miss. Empty: the located region only.
+  virtual std::vector<BoxRegion> start_regions(const EffectContext&) const { return {}; }
 };
 
 //! Every registered effect, in a fixed order.
