@@ -612,7 +612,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     materials::Mat3 Fm, Pm;
     std::copy(F, F + 9, Fm.a);
     if constexpr (std::is_same_v<Law, materials::FixedCorotated>) {
-      // The rotation by Newton's polar iteration: ~10x cheaper than the SVD, which took 85 %
+      // The rotation by Newton's polar iteration: ~10x cheaper than the SVD, which took 84 %
       // of a corotated run (bench_diagnose); the SVD stays for inverted elements.
       materials::Mat3 R;
       if (!materials::polar_rotation_newton(Fm, R)) R = materials::polar_rotation(Fm);
