@@ -308,6 +308,31 @@ TEST(DiagnoseModel, PlasticityPastYieldConvergesAndLeavesAPermanentSet) {
   EXPECT_LT(plastic.max_mises, elastic.max_mises);
 }
 
+TEST(DiagnoseFit, ConditionalStandardErrorIsTheCovarianceOrInfiniteWhenUnconstrained) {
+  // Full rank: equal to sqrt(s2 (J^T J)^-1_jj).
+  std::mt19937 rng(7);
+  std::normal_distribution<double> nd;
+  Eigen::MatrixXd J(50, 3);
+  for (Eigen::Index i = 0; i < J.rows(); ++i)
+    for (Eigen::Index c = 0; c < J.cols(); ++c) J(i, c) = nd(rng);
+  J.col(2) += 0.9 * J.col(0);  // correlated: the conditional error exceeds the marginal one
+  const double s2 = 1.7;
+  const Eigen::MatrixXd cov = s2 * (J.transpose() * J).inverse();
+  for (Eigen::Index j = 0; j < 3; ++j)
+    EXPECT_NEAR(conditional_standard_error(J, j, s2), std::sqrt(cov(j, j)),
+                1e-12 * std::sqrt(cov(j, j)));
+  // A zero column (a parameter the data do not see) and a column in the span of the others
+  // (two parameters that trade off exactly) are unconstrained.
+  Eigen::MatrixXd Z = J;
+  Z.col(1).setZero();
+  EXPECT_TRUE(std::isinf(conditional_standard_error(Z, 1, s2)));
+  EXPECT_TRUE(std::isfinite(conditional_standard_error(Z, 0, s2)));
+  Eigen::MatrixXd C = J;
+  C.col(2) = 2 * C.col(0) - 0.5 * C.col(1);
+  EXPECT_TRUE(std::isinf(conditional_standard_error(C, 2, s2)));
+  EXPECT_TRUE(std::isinf(conditional_standard_error(C, 0, s2)));
+}
+
 TEST(DiagnoseNoise, RecoversTheNoiseOfASmoothSignal) {
   std::mt19937 rng(3);
   std::normal_distribution<double> nd(0, 2e-4);

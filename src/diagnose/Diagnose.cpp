@@ -40,6 +40,14 @@ constexpr double kRegionRefitShare = 0.2;
 //! ... unless a refitted effect already lowers the noise-weighted held-out rms by this share.
 constexpr double kRegionRefitBelowGain = 0.8;
 
+//! Refits that start from several regions (heterogeneity) give the best this many regions a
+//! short fit of this many iterations before choosing where to start the full fit (5: the
+//! located box and the four quarters).
+constexpr std::size_t kRegionStarts = 5;
+constexpr int kRegionStartIterations = 3;
+//! Face moves of a region: the best this many moves of a round get such a short fit.
+constexpr std::size_t kMoveFits = 2;
+
 //! Upper 0.1 % point of chi-square with k degrees of freedom (k <= 10), else Wilson-Hilferty.
 double chi2_crit999(int k) {
   static const double q[] = {0,     10.83, 13.82, 16.27, 18.47, 20.52,
@@ -896,10 +904,39 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       const auto runs_s = ev.run(batch_s);
       double best_chi = 1e300;
       std::size_t best_region = 0;
+      // The best start of each region.
+      std::vector<double> region_chi(regions.size(), 1e300);
+      std::vector<std::vector<double>> region_z(regions.size());
       for (std::size_t k = 0; k < starts.size(); ++k) {
         if (!runs_s[k].ok) continue;
         const double ck = weighted_residual(obs, runs_s[k], obs.train).squaredNorm();
         if (ck < best_chi) best_chi = ck, z0 = starts[k], best_region = start_region[k];
+        if (ck < region_chi[start_region[k]])
+          region_chi[start_region[k]] = ck, region_z[start_region[k]] = starts[k];
+      }
+      // With several regions, the best start is not always the best basin: at a start, E and
+      // the factor are off the narrow valley they share, and a region near the true one can
+      // start worse than a wrong one (heterogeneity-stiff: a soft middle at a higher E beat the
+      // stiff root). The best kRegionStarts regions each get a short fit; the best fit wins.
+      if (regions.size() > 1) {
+        std::vector<std::size_t> ro(regions.size());
+        std::iota(ro.begin(), ro.end(), 0);
+        std::sort(ro.begin(), ro.end(),
+                  [&](std::size_t a, std::size_t b) { return region_chi[a] < region_chi[b]; });
+        double best_fit = 1e300;
+        for (std::size_t q = 0; q < std::min(ro.size(), kRegionStarts); ++q) {
+          const std::size_t ri = ro[q];
+          if (region_z[ri].empty()) continue;
+          ctx.region = regions[ri];
+          const LsqResult rs = least_squares(ev, pr, region_z[ri], kRegionStartIterations, false);
+          log::info(
+              "  {} short fit from [{:.3g} {:.3g} {:.3g}]-[{:.3g} {:.3g} {:.3g}]: chi2 "
+              "{:.4g} -> {:.4g}",
+              c.effect, ctx.region.lo[0], ctx.region.lo[1], ctx.region.lo[2], ctx.region.hi[0],
+              ctx.region.hi[1], ctx.region.hi[2], region_chi[ri], rs.chi2);
+          if (rs.pred.ok && rs.chi2 < best_fit)
+            best_fit = rs.chi2, best_chi = rs.chi2, z0 = rs.z, best_region = ri;
+        }
       }
       ctx.region = regions[best_region];
       log::info(
@@ -971,21 +1008,36 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
           tries[i].second[0] = match_frequency(tries[i].second[0], w_fit, probe_b[i]);
         const auto pb_runs = run_tries(all);
         // The matched frequency leaves a phase error that can hide a better shape (chi2 moves
-        // 10 % for 0.1 % of E over 7 periods): a Gauss-Newton step in log E, with the
-        // sensitivity to log E of the current fit (two runs per round) standing in for each
-        // move's; the moves are ranked by the chi2 that step predicts, and the best kGnMoves
-        // take it in a forward run.
+        // 10 % for 0.1 % of E over 7 periods), and E and the factor trade off along a narrow
+        // valley (heterogeneity-soft at its true box: chi2 per value 1.5 at the best (E, f),
+        // 50 at f 3 % off, 10 at E 1 % off). So each move takes a Gauss-Newton step in
+        // (log E, log factor) jointly, with the sensitivities of the current fit (three runs
+        // per round) standing in for each move's; the moves are ranked by the chi2 that step
+        // predicts, and the best kGnMoves take it in a forward run.
         constexpr std::size_t kGnMoves = 4;
         const double dz = 1e-3;
-        std::vector<double> zd = r.z;
-        zd[0] += dz;
-        const auto base_runs = ev.run({pr.physics(r.z), pr.physics(zd)});
-        Eigen::VectorXd J;
-        if (base_runs[0].ok && base_runs[1].ok)
-          J = (weighted_residual(obs, base_runs[1], obs.train) -
-               weighted_residual(obs, base_runs[0], obs.train)) /
-              dz;
-        const double jj = J.size() ? J.squaredNorm() : 0.0;
+        const std::array<std::size_t, 2> gn_cols = {0, 2};  // log E, log stiffness factor
+        std::vector<Physics> jb = {pr.physics(r.z)};
+        for (std::size_t col : gn_cols) {
+          std::vector<double> zd = r.z;
+          zd[col] += dz;
+          jb.push_back(pr.physics(zd));
+        }
+        const auto base_runs = ev.run(jb);
+        Eigen::MatrixXd J;
+        if (std::all_of(base_runs.begin(), base_runs.end(),
+                        [](const Prediction& p) { return p.ok; })) {
+          const Eigen::VectorXd rb = weighted_residual(obs, base_runs[0], obs.train);
+          J.resize(rb.size(), static_cast<Eigen::Index>(gn_cols.size()));
+          for (std::size_t k = 0; k < gn_cols.size(); ++k)
+            J.col(static_cast<Eigen::Index>(k)) =
+                (weighted_residual(obs, base_runs[k + 1], obs.train) - rb) / dz;
+        }
+        const bool have_j = J.size() > 0;
+        const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> jqr =
+            have_j ? Eigen::ColPivHouseholderQR<Eigen::MatrixXd>(J)
+                   : Eigen::ColPivHouseholderQR<Eigen::MatrixXd>();
+        const std::array<double, 2> max_step = {0.05, 0.3};  // |d log E|, |d log f|
         std::vector<double> chi_matched(tries.size(), 1e300), chi_predicted(tries.size(), 1e300);
         std::vector<std::vector<double>> z_gn(tries.size());
         for (std::size_t i = 0; i < tries.size(); ++i) {
@@ -993,17 +1045,27 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
           if (!pb_runs[i].ok) continue;
           const Eigen::VectorXd r0 = weighted_residual(obs, pb_runs[i], obs.train);
           chi_matched[i] = chi_predicted[i] = r0.squaredNorm();
-          if (jj > 0) {
-            const double step = std::clamp(J.dot(r0) / jj, -0.05, 0.05);
-            z_gn[i][0] -= step;
-            chi_predicted[i] = (r0 - step * J).squaredNorm();
+          if (have_j) {
+            Eigen::VectorXd step = jqr.solve(r0);
+            // A step past its bound is scaled back as a whole (the valley is diagonal).
+            double scale = 1;
+            for (std::size_t k = 0; k < gn_cols.size(); ++k)
+              if (std::abs(step[static_cast<Eigen::Index>(k)]) > max_step[k])
+                scale = std::min(scale, max_step[k] / std::abs(step[static_cast<Eigen::Index>(k)]));
+            step *= scale;
+            for (std::size_t k = 0; k < gn_cols.size(); ++k) {
+              const std::size_t col = gn_cols[k];
+              z_gn[i][col] = std::clamp(z_gn[i][col] - step[static_cast<Eigen::Index>(k)],
+                                        pr.lo[col], pr.hi[col]);
+            }
+            chi_predicted[i] = (r0 - J * step).squaredNorm();
           }
         }
         std::vector<std::size_t> order = all;
         std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
           return chi_predicted[a] < chi_predicted[b];
         });
-        order.resize(std::min(order.size(), jj > 0 ? kGnMoves : std::size_t{0}));
+        order.resize(std::min(order.size(), have_j ? kGnMoves : std::size_t{0}));
         for (std::size_t i : order) std::swap(tries[i].second, z_gn[i]);
         const auto pg_runs = run_tries(order);
         for (std::size_t k = 0; k < order.size(); ++k) {
@@ -1015,11 +1077,37 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
           else
             std::swap(tries[i].second, z_gn[i]);  // back to the matched point
         }
+        // One step still leaves a move off its own valley while the current box sits at its
+        // optimum (heterogeneity-stiff: from [0, 0.05] to the true [0.01, 0.05] the factor must
+        // go from 1.6 to 2.7 at a lower E), so the best kMoveFits moves get a short fit.
+        {
+          std::vector<std::size_t> by_chi = all;
+          std::sort(by_chi.begin(), by_chi.end(),
+                    [&](std::size_t a, std::size_t b) { return chi_matched[a] < chi_matched[b]; });
+          for (std::size_t q = 0; q < std::min(by_chi.size(), kMoveFits); ++q) {
+            const std::size_t i = by_chi[q];
+            if (!(chi_matched[i] < 1e299)) continue;
+            ctx.region = tries[i].first;
+            const LsqResult rs =
+                least_squares(ev, pr, tries[i].second, kRegionStartIterations, false);
+            if (rs.pred.ok && rs.chi2 < chi_matched[i])
+              chi_matched[i] = rs.chi2, tries[i].second = rs.z;
+          }
+          ctx.region = keep;
+        }
         double best_chi = r.chi2;
         int pick = -1;
         for (std::size_t i = 0; i < tries.size(); ++i)
           if (chi_matched[i] < best_chi) best_chi = chi_matched[i], pick = static_cast<int>(i);
         if (pick < 0 || best_chi > 0.995 * r.chi2) break;
+        {
+          const BoxRegion& nb = tries[static_cast<std::size_t>(pick)].first;
+          log::info(
+              "  heterogeneity face move {}: [{:.3g} {:.3g} {:.3g}]-[{:.3g} {:.3g} {:.3g}], "
+              "chi2 {:.4g} -> {:.4g}",
+              round + 1, nb.lo[0], nb.lo[1], nb.lo[2], nb.hi[0], nb.hi[1], nb.hi[2], r.chi2,
+              best_chi);
+        }
         ctx.region = tries[static_cast<std::size_t>(pick)].first;
         r.z = tries[static_cast<std::size_t>(pick)].second;
         r.chi2 = best_chi;
@@ -1253,14 +1341,15 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
             (weighted_residual(obs, jp[j], obs.train) - rb) / hstep[j];
     }
     const double s2 = best->chi2 / std::max(1.0, N - static_cast<double>(np));
-    const Eigen::MatrixXd H = J.transpose() * J;
-    const Eigen::MatrixXd cov = s2 * H.completeOrthogonalDecomposition().pseudoInverse();
     std::vector<Physics> ends;
     std::vector<std::vector<double>> zends;
     for (std::size_t q = 0; q < specs.size(); ++q) {
       const std::size_t j = 2 + q;
-      const double se = std::sqrt(
-          std::max(cov(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(j)), 1e-30));
+      // An unconstrained parameter (a zero Jacobian column: hardening when almost nothing
+      // yields) has an infinite standard error: its probes go to the bounds, and its interval
+      // is the range (the pseudo-inverse's zero variance gave an interval of zero width).
+      const double se = std::min(conditional_standard_error(J, static_cast<Eigen::Index>(j), s2),
+                                 2 * (pr.hi[j] - pr.lo[j]) + 1.0);
       for (int side = -1; side <= 1; side += 2) {
         std::vector<double> z = best->z;
         const double dz = std::clamp(best->z[j] + side * 2.0 * se, pr.lo[j], pr.hi[j]) - best->z[j];

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include <fmt/format.h>
 
@@ -90,6 +91,23 @@ int main_component(const Observations& obs, int channel) {
     if (var > best_var) best_var = var, best = k;
   }
   return best;
+}
+
+double conditional_standard_error(const Eigen::MatrixXd& J, Eigen::Index j, double s2) {
+  const Eigen::VectorXd col = J.col(j);
+  const double n0 = col.norm();
+  if (!(n0 > 0) || !std::isfinite(n0)) return std::numeric_limits<double>::infinity();
+  Eigen::VectorXd rest = col;
+  if (J.cols() > 1) {
+    Eigen::MatrixXd others(J.rows(), J.cols() - 1);
+    for (Eigen::Index c = 0, k = 0; c < J.cols(); ++c)
+      if (c != j) others.col(k++) = J.col(c);
+    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(others);
+    rest = col - others * qr.solve(col);
+  }
+  const double n1 = rest.norm();
+  if (!(n1 > 1e-10 * n0)) return std::numeric_limits<double>::infinity();
+  return std::sqrt(s2) / n1;
 }
 
 double rms(const Observations& obs, const Prediction& p, const std::vector<char>& mask) {

@@ -67,6 +67,14 @@ int main_component(const Observations& obs, int channel);
 //! markers, else of the accelerations (m/s^2).
 double rms(const Observations& obs, const Prediction& p, const std::vector<char>& mask);
 
+//! Standard error of parameter j of a least-squares fit with Jacobian J and residual variance
+//! s2, the others re-optimised: sqrt(s2) over the norm of J's column j with its projection on
+//! the other columns removed (the Schur complement of J^T J; equal to sqrt(cov_jj) when J has
+//! full rank). Infinite when the column lies in the span of the others (to 1e-10 of its norm)
+//! or is zero: the data do not constrain the parameter, whose interval is then its range (the
+//! pseudo-inverse of J^T J would give a variance of zero there).
+double conditional_standard_error(const Eigen::MatrixXd& J, Eigen::Index j, double s2);
+
 //! A bounded least-squares problem in internal coordinates z (log of positive parameters).
 struct LsqProblem {
   std::vector<double> lo, hi;  //!< bounds on z
