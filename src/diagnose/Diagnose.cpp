@@ -1011,13 +1011,15 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         // 10 % for 0.1 % of E over 7 periods), and E and the factor trade off along a narrow
         // valley (heterogeneity-soft at its true box: chi2 per value 1.5 at the best (E, f),
         // 50 at f 3 % off, 10 at E 1 % off). So each move takes a Gauss-Newton step in
-        // (log E, log factor) jointly, with the sensitivities of the current fit (three runs
+        // (log E, log factor) jointly, with the sensitivities of the current fit (two runs
         // per round) standing in for each move's; the moves are ranked by the chi2 that step
         // predicts, and the best kGnMoves take it in a forward run.
         constexpr std::size_t kGnMoves = 4;
         const double dz = 1e-3;
         const std::array<std::size_t, 2> gn_cols = {0, 2};  // log E, log stiffness factor
-        std::vector<Physics> jb = {pr.physics(r.z)};
+        // r.pred is the current fit's run (kept with each accepted move): only the two
+        // perturbed runs are new.
+        std::vector<Physics> jb;
         for (std::size_t col : gn_cols) {
           std::vector<double> zd = r.z;
           zd[col] += dz;
@@ -1025,13 +1027,13 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         }
         const auto base_runs = ev.run(jb);
         Eigen::MatrixXd J;
-        if (std::all_of(base_runs.begin(), base_runs.end(),
-                        [](const Prediction& p) { return p.ok; })) {
-          const Eigen::VectorXd rb = weighted_residual(obs, base_runs[0], obs.train);
+        if (r.pred.ok && std::all_of(base_runs.begin(), base_runs.end(),
+                                     [](const Prediction& p) { return p.ok; })) {
+          const Eigen::VectorXd rb = weighted_residual(obs, r.pred, obs.train);
           J.resize(rb.size(), static_cast<Eigen::Index>(gn_cols.size()));
           for (std::size_t k = 0; k < gn_cols.size(); ++k)
             J.col(static_cast<Eigen::Index>(k)) =
-                (weighted_residual(obs, base_runs[k + 1], obs.train) - rb) / dz;
+                (weighted_residual(obs, base_runs[k], obs.train) - rb) / dz;
         }
         const bool have_j = J.size() > 0;
         const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> jqr =
@@ -1040,6 +1042,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         const std::array<double, 2> max_step = {0.05, 0.3};  // |d log E|, |d log f|
         std::vector<double> chi_matched(tries.size(), 1e300), chi_predicted(tries.size(), 1e300);
         std::vector<std::vector<double>> z_gn(tries.size());
+        std::vector<Prediction> pred_try(pb_runs.begin(), pb_runs.end());  // at tries[i].second
         for (std::size_t i = 0; i < tries.size(); ++i) {
           z_gn[i] = tries[i].second;
           if (!pb_runs[i].ok) continue;
@@ -1073,7 +1076,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
           const double cg =
               pg_runs[k].ok ? weighted_residual(obs, pg_runs[k], obs.train).squaredNorm() : 1e300;
           if (cg < chi_matched[i])
-            chi_matched[i] = cg;
+            chi_matched[i] = cg, pred_try[i] = pg_runs[k];
           else
             std::swap(tries[i].second, z_gn[i]);  // back to the matched point
         }
@@ -1091,7 +1094,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
             const LsqResult rs =
                 least_squares(ev, pr, tries[i].second, kRegionStartIterations, false);
             if (rs.pred.ok && rs.chi2 < chi_matched[i])
-              chi_matched[i] = rs.chi2, tries[i].second = rs.z;
+              chi_matched[i] = rs.chi2, tries[i].second = rs.z, pred_try[i] = rs.pred;
           }
           ctx.region = keep;
         }
@@ -1111,6 +1114,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         ctx.region = tries[static_cast<std::size_t>(pick)].first;
         r.z = tries[static_cast<std::size_t>(pick)].second;
         r.chi2 = best_chi;
+        r.pred = pred_try[static_cast<std::size_t>(pick)];
       }
       r = least_squares(ev, pr, r.z, opt.max_iterations, false);
       log::info("  heterogeneity region refined to [{:.3g} {:.3g} {:.3g}]-[{:.3g} {:.3g} {:.3g}]",
