@@ -22,7 +22,6 @@ namespace gen4d::diagnose {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 //! Upper bound of the calibrated Poisson ratio (a deck's larger nominal value is kept).
 constexpr double kMaxPoisson = 0.45;
 //! Practical significance: an effect must remove this share of the held-out rms. A model of
@@ -47,6 +46,8 @@ constexpr std::size_t kRegionStarts = 5;
 constexpr int kRegionStartIterations = 3;
 //! Face moves of a region: the best this many moves of a round get such a short fit.
 constexpr std::size_t kMoveFits = 2;
+//! Iterations of each window fit of a continuation fit (continuation_fit).
+constexpr int kWindowIterations = 4;
 
 //! Upper 0.1 % point of chi-square with k degrees of freedom (k <= 10), else Wilson-Hilferty.
 double chi2_crit999(int k) {
@@ -543,6 +544,12 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   ctx.model = &model;
   ctx.base = calibrated;
   ctx.omega = dominant_omega(obs, obs.y, t_free);
+  const std::vector<double> windows = continuation_windows(obs, t_free, ctx.omega);
+  if (!windows.empty()) {
+    std::string ws;
+    for (double w : windows) ws += fmt::format(" {:.3g}", w);
+    log::info("continuation windows (fits of effects that move a frequency): t <={} s", ws);
+  }
   ctx.max_mises = base.pred.max_mises;
   ctx.max_speed = base.pred.max_speed;
   ctx.total_mass = model.volume() * calibrated.density;
@@ -857,6 +864,10 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         if (!std::isnan(v)) z0[2 + q] = to_z(specs[q], std::clamp(v, specs[q].lo, specs[q].hi));
       }
     }
+    // Effects that move a frequency are fitted by continuation in time (continuation_fit),
+    // once: by their region short fits, else by their refit.
+    bool continued = false;
+    const bool moves_frequency = !e.frequency_grid(ctx, c.variant).empty();
     if (const auto grid = e.frequency_grid(ctx, c.variant); !grid.empty()) {
       // A soft (stiff) region or a compliant clamp changes the frequency, which the
       // calibration has already absorbed into E, and any other value at that E puts the motion
@@ -917,8 +928,10 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       // With several regions, the best start is not always the best basin: at a start, E and
       // the factor are off the narrow valley they share, and a region near the true one can
       // start worse than a wrong one (heterogeneity-stiff: a soft middle at a higher E beat the
-      // stiff root). The best kRegionStarts regions each get a short fit; the best fit wins.
+      // stiff root). The best kRegionStarts regions each get the window fits of a continuation
+      // fit, scored on the whole recording; the best wins and is continued there.
       if (regions.size() > 1) {
+        continued = true;
         std::vector<std::size_t> ro(regions.size());
         std::iota(ro.begin(), ro.end(), 0);
         std::sort(ro.begin(), ro.end(),
@@ -928,7 +941,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
           const std::size_t ri = ro[q];
           if (region_z[ri].empty()) continue;
           ctx.region = regions[ri];
-          const LsqResult rs = least_squares(ev, pr, region_z[ri], kRegionStartIterations, false);
+          const LsqResult rs =
+              continuation_fit(ev, pr, region_z[ri], windows, kWindowIterations, 0, false);
           log::info(
               "  {} short fit from [{:.3g} {:.3g} {:.3g}]-[{:.3g} {:.3g} {:.3g}]: chi2 "
               "{:.4g} -> {:.4g}",
@@ -947,7 +961,10 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
                                          ctx.region.lo[0], ctx.region.lo[1], ctx.region.lo[2],
                                          ctx.region.hi[0], ctx.region.hi[1], ctx.region.hi[2]));
     }
-    LsqResult r = least_squares(ev, pr, z0, opt.max_iterations, false);
+    LsqResult r =
+        moves_frequency && !continued
+            ? continuation_fit(ev, pr, z0, windows, kWindowIterations, opt.max_iterations, false)
+            : least_squares(ev, pr, z0, opt.max_iterations, false);
     if (c.effect == "heterogeneity" && !r.abandoned) {
       // Refine the located box with forward runs: move each face in or out by one voxel, or
       // out to the body's bound (a greedy voxel step cannot cross a worse half-way box), keep

@@ -21,13 +21,25 @@ Evaluator::Evaluator(MPI_Comm comm, const VoxelModel& model, const Observations&
   MPI_Comm_size(comm, &size_);
 }
 
+void Evaluator::set_horizon(double t) {
+  horizon_ = t;
+  requests_.clear();
+  if (!std::isfinite(t)) return;
+  requests_ = obs_.requests;
+  for (auto& r : requests_) {
+    const auto end = std::upper_bound(r.t.begin(), r.t.end(), t);
+    r.t.erase(end, r.t.end());
+  }
+}
+
 std::vector<Prediction> Evaluator::run(const std::vector<Physics>& batch) {
   std::vector<Prediction> out(batch.size());
   double local_seconds = 0;
+  const bool cut = std::isfinite(horizon_);
   for (std::size_t i = 0; i < batch.size(); ++i) {
     if (static_cast<int>(i % static_cast<std::size_t>(size_)) != rank_) continue;
     const auto t0 = std::chrono::steady_clock::now();
-    const Trace tr = model_.run(batch[i], obs_.requests);
+    const Trace tr = model_.run(batch[i], cut ? requests_ : obs_.requests);
     local_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     Prediction& p = out[i];
     p.ok = tr.ok;
@@ -36,7 +48,12 @@ std::vector<Prediction> Evaluator::run(const std::vector<Physics>& batch) {
     p.max_speed = tr.max_speed;
     if (tr.ok) {
       p.y.reserve(obs_.size());
-      for (const auto& c : tr.channel) p.y.insert(p.y.end(), c.begin(), c.end());
+      for (std::size_t c = 0; c < tr.channel.size(); ++c) {
+        p.y.insert(p.y.end(), tr.channel[c].begin(), tr.channel[c].end());
+        // Samples after the horizon: NaN, so a mask that reads them shows at once.
+        p.y.resize(p.y.size() + 3 * (obs_.requests[c].t.size() - tr.channel[c].size() / 3),
+                   std::numeric_limits<double>::quiet_NaN());
+      }
     }
   }
   // Share every result from the rank that computed it.
@@ -400,6 +417,54 @@ LsqResult least_squares(Evaluator& ev, const LsqProblem& prob, std::vector<doubl
   if (c.z_jac == res.z) res.J = c.J;
   res.runs = c.runs;
   return res;
+}
+
+std::vector<double> continuation_windows(const Observations& obs, double t_from, double omega) {
+  std::vector<double> w;
+  if (obs.t.empty() || !(omega > 0) || !std::isfinite(omega)) return w;
+  const double t_end = *std::max_element(obs.t.begin(), obs.t.end());
+  const double period = 2 * kPi / omega;
+  for (double span = 1.5 * period; t_from + span < t_end - period; span *= 2)
+    w.push_back(t_from + span);
+  return w;
+}
+
+LsqResult continuation_fit(Evaluator& ev, const LsqProblem& prob, std::vector<double> z0,
+                           const std::vector<double>& windows, int window_iterations,
+                           int final_iterations, bool final_jacobian) {
+  const Observations& obs = ev.observations();
+  long runs = 0;
+  for (double w : windows) {
+    std::vector<char> mask = *prob.mask;
+    for (std::size_t i = 0; i < obs.size(); ++i)
+      if (obs.t[i] > w) mask[i] = 0;
+    if (std::none_of(mask.begin(), mask.end(), [](char m) { return m != 0; })) continue;
+    LsqProblem pw = prob;
+    pw.mask = &mask;
+    pw.abandon_chi2 = std::numeric_limits<double>::infinity();  // set for the whole recording
+    struct Horizon {  // runs stop at w for this fit only, whatever way it ends
+      Evaluator& ev;
+      Horizon(Evaluator& e, double t) : ev(e) { ev.set_horizon(t); }
+      ~Horizon() { ev.set_horizon(std::numeric_limits<double>::infinity()); }
+    } horizon(ev, w);
+    const LsqResult rw = least_squares(ev, pw, z0, window_iterations, false);
+    runs += rw.runs;
+    log::info("    fit: window t <= {:.3g} s: chi2 {:.6g} ({} runs)", w, rw.chi2, rw.runs);
+    if (rw.pred.ok) z0 = rw.z;
+  }
+  LsqResult r;
+  if (final_iterations > 0) {
+    r = least_squares(ev, prob, z0, final_iterations, final_jacobian);
+  } else {  // the last window's optimum, scored on the whole recording (one run)
+    r.z = z0;
+    r.pred = ev.run_one(prob.physics(z0));
+    r.r = weighted_residual(obs, r.pred, *prob.mask);
+    r.chi2 = r.r.squaredNorm();
+    r.runs = 1;
+    r.reason = "windows only";
+  }
+  r.runs += runs;
+  return r;
 }
 
 }  // namespace gen4d::diagnose

@@ -14,6 +14,8 @@
 
 namespace gen4d::diagnose {
 
+constexpr double kPi = 3.14159265358979323846;
+
 //! The observations: every sample of every channel, 3 components, flattened channel by
 //! channel; `sigma` weights each one (noise of its channel kind).
 struct Observations {
@@ -47,12 +49,18 @@ class Evaluator {
   const Observations& observations() const { return obs_; }
   const VoxelModel& model() const { return model_; }
   MPI_Comm comm() const { return comm_; }
+  //! Runs stop at time t (infinity: the recording's end). Values after t are NaN and must be
+  //! outside the mask of whatever reads them (a fit of the first part of a recording).
+  void set_horizon(double t);
+  double horizon() const { return horizon_; }
 
  private:
   MPI_Comm comm_;
   int rank_ = 0, size_ = 1;
   const VoxelModel& model_;
   const Observations& obs_;
+  double horizon_ = std::numeric_limits<double>::infinity();
+  std::vector<ChannelRequest> requests_;  //!< obs_.requests cut at horizon_
   long runs_ = 0;
   double seconds_ = 0;
 };
@@ -98,6 +106,22 @@ struct LsqResult {
   std::string reason;      //!< TAO's converged reason
   bool abandoned = false;  //!< stopped by LsqProblem::abandon_chi2
 };
+
+//! The ends of the time windows of a continuation fit: t_from + 1.5 T 2^k (T = 2 pi / omega,
+//! the dominant period) while before the recording's last sample less one period; empty when
+//! the recording is too short for a window.
+std::vector<double> continuation_windows(const Observations& obs, double t_from, double omega);
+
+//! least_squares on the recording up to each window end in turn (runs stopped there), each
+//! fit starting from the last, then on all of it (final_iterations). Trajectory least squares
+//! has a local minimum per period of phase error, and a parameter that moves a frequency
+//! (a region's stiffness, a clamp's) puts a start many periods out of phase by the end of the
+//! recording but less than half a period within a window of a few periods; so the window fits
+//! keep to the basin that holds the right phase and the full fit refines it. With no windows
+//! it is least_squares. The result counts the runs of all the fits.
+LsqResult continuation_fit(Evaluator& ev, const LsqProblem& prob, std::vector<double> z0,
+                           const std::vector<double>& windows, int window_iterations,
+                           int final_iterations, bool final_jacobian = true);
 
 //! Minimises |r(z)|^2 from z0 with TAO BRGN; every rank runs the same iterations. The
 //! result's J is the Jacobian at the optimum; when the last one TAO computed was elsewhere it is

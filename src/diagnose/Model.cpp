@@ -829,7 +829,10 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   double t_last = 0;
   for (const auto& r : req)
     if (!r.t.empty()) t_last = std::max(t_last, r.t.back());
-  const long nsteps = static_cast<long>(std::ceil(t_last / dt - 1e-9));
+  // One step past the last sample's: a sample then never sits at the end of the history, and
+  // its value does not depend on which later samples were asked for (a run cut at a horizon
+  // gives the full run's values bit for bit).
+  const long nsteps = static_cast<long>(std::ceil(t_last / dt - 1e-9)) + 1;
   std::vector<int> sample_slot(nn, -1);
   std::vector<std::size_t> sampled;
   for (const auto& r : req)
