@@ -867,8 +867,9 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     // Effects that move a frequency are fitted by continuation in time (continuation_fit),
     // once: by their region short fits, else by their refit.
     bool continued = false;
-    const bool moves_frequency = !e.frequency_grid(ctx, c.variant).empty();
-    if (const auto grid = e.frequency_grid(ctx, c.variant); !grid.empty()) {
+    const auto grid = e.frequency_grid(ctx, c.variant);
+    const bool moves_frequency = !grid.empty();
+    if (moves_frequency) {
       // A soft (stiff) region or a compliant clamp changes the frequency, which the
       // calibration has already absorbed into E, and any other value at that E puts the motion
       // out of phase (chi-square has a local minimum per period of phase error). Start from
