@@ -138,11 +138,16 @@ ModalFrequencies modal_frequencies(const Observations& obs, const std::vector<do
       },
       w1s - dw, w1s + dw, 30);
   const double s0 = misfit(ser, {w1, 2 * w1});
+  // Large rotations put harmonics of the first mode into the motion: 2 omega1 (along the
+  // axis, in the basis) and 3 omega1 (cubic stiffening); higher ones are negligible, and a
+  // mode that happens to lie near one (heterogeneity-soft: omega2 100.4 rad/s, 5 omega1
+  // 99.8 rad/s) must not be excluded.
   auto near_harmonic = [&](double w) {
-    for (int k = 2; k * w1 < 1.1 * w_max; ++k)
+    for (int k = 2; k <= 3; ++k)
       if (std::abs(w - k * w1) < 0.03 * k * w1 + 2 * dw) return true;
     return false;
   };
+
   double best2 = 1e300, wb = 0;
   const double lo2 = omega2_guess > 0 ? std::max(1.5 * w1, 0.65 * omega2_guess) : 1.5 * w1;
   const double hi2 = omega2_guess > 0 ? std::min(w_max, 1.35 * omega2_guess) : w_max;

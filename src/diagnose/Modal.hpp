@@ -26,7 +26,7 @@ double sinusoid_misfit(const Observations& obs, const std::vector<double>& y, do
 //! `omega1_guess`, e.g. from mean crossings); omega2 the one that best explains what remains
 //! with omega1 and its first harmonic 2 omega1 (which large rotations put into the motion
 //! along the axis) in the basis, searched from 1.5 omega1 to 0.9 of the Nyquist frequency of
-//! the median sample spacing, away from the harmonics k omega1. omega2 is kept when it
+//! the median sample spacing, away from 3 omega1 (cubic stiffening). omega2 is kept when it
 //! removes more chi-square than the largest of that many independent noise-only frequencies
 //! would (about 2 m + 10 sqrt(4 m) + 25 for m channel components), else it is 0. With
 //! omega2_guess > 0 (a simulation of a recording whose omega2 is known) omega2 is searched
