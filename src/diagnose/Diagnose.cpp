@@ -1076,9 +1076,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         // of the calibrated chi-square: in phase on both modes, a start in the true region's
         // basin does (heterogeneity-stiff: 4989 of 15440), and when none does, the region is
         // not among them (heterogeneity-soft: at best 4.16e4 of 7.1e4, from the wrong
-        // quarters; the true one never reaches the recorded ratio, as the voxel model's ratio
-        // at the true box differs from the CalculiX recording's) and the grid starts race
-        // through continuation windows instead.
+        // quarters; the one holding the true box does not reach the recorded ratio on the
+        // factor grid) and the grid starts race through continuation windows instead.
         if (!matched.empty()) {
           std::vector<Physics> batch_c;
           for (std::size_t q = 0; q < matched.size(); ++q) {
