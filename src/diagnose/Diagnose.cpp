@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <tuple>
@@ -170,10 +171,10 @@ void whiteness(const Observations& obs, const Prediction& p, double& p_value, do
   const int lags = 10;
   double Q = 0, dof = 0, r1 = 0;
   long series = 0;
-  std::map<std::pair<int, int>, std::vector<double>> ser;
-  for (std::size_t i = 0; i < obs.size(); ++i)
-    ser[{obs.channel[i], obs.component[i]}].push_back((p.y[i] - obs.y[i]) / obs.sigma[i]);
-  for (auto& [key, r] : ser) {
+  for (const auto& idx : component_series(obs)) {
+    std::vector<double> r(idx.size());
+    for (std::size_t k = 0; k < idx.size(); ++k)
+      r[k] = (p.y[idx[k]] - obs.y[idx[k]]) / obs.sigma[idx[k]];
     const std::size_t n = r.size();
     if (n < 3 * lags) continue;
     const double m = std::accumulate(r.begin(), r.end(), 0.0) / static_cast<double>(n);
@@ -200,15 +201,10 @@ void whiteness(const Observations& obs, const Prediction& p, double& p_value, do
 //! mean-crossings of the position channel component with the largest variance (accelerometers
 //! only when there is no marker: acceleration weights the higher modes by omega^2).
 double dominant_omega(const Observations& obs, const std::vector<double>& y, double t_from) {
-  std::map<std::pair<int, int>, std::vector<std::pair<double, double>>> ser;
-  bool any_position = false;
-  for (const auto& r : obs.requests) any_position = any_position || !r.acceleration;
-  for (std::size_t i = 0; i < obs.size(); ++i)
-    if (obs.t[i] >= t_from &&
-        !(any_position && obs.requests[static_cast<std::size_t>(obs.channel[i])].acceleration))
-      ser[{obs.channel[i], obs.component[i]}].push_back({obs.t[i], y[i]});
   double best_var = -1, omega = 2 * kPi;
-  for (auto& [key, s] : ser) {
+  for (const auto& idx : component_series(obs, t_from, true)) {
+    std::vector<std::pair<double, double>> s(idx.size());
+    for (std::size_t k = 0; k < idx.size(); ++k) s[k] = {obs.t[idx[k]], y[idx[k]]};
     if (s.size() < 8) continue;
     double m = 0;
     for (auto& [t, y] : s) m += y;
@@ -305,17 +301,17 @@ std::vector<Crossing> ratio_crossings(std::vector<ModePoint> pts, double r_targe
 double vuong_z(const Observations& obs, const std::vector<char>& mask, const Prediction& a,
                const Prediction& b) {
   if (!a.ok || !b.ok) return a.ok ? 1e300 : -1e300;
-  std::map<std::pair<int, int>, std::vector<double>> series;
-  for (std::size_t i = 0; i < obs.size(); ++i) {
-    if (!mask[i]) continue;
-    const double ra = (a.y[i] - obs.y[i]) / obs.sigma[i], rb = (b.y[i] - obs.y[i]) / obs.sigma[i];
-    series[{obs.channel[i], obs.component[i]}].push_back(rb * rb - ra * ra);
-  }
   std::vector<double> batch;
-  for (const auto& [key, d] : series)
+  for (const auto& d : component_series(obs, -std::numeric_limits<double>::infinity(), false,
+                                        [&](std::size_t i) { return mask[i] != 0; }))
     for (std::size_t k = 0; k < d.size(); k += 10) {
       double acc = 0;
-      for (std::size_t j = k; j < std::min(d.size(), k + 10); ++j) acc += d[j];
+      for (std::size_t j = k; j < std::min(d.size(), k + 10); ++j) {
+        const std::size_t i = d[j];
+        const double ra = (a.y[i] - obs.y[i]) / obs.sigma[i];
+        const double rb = (b.y[i] - obs.y[i]) / obs.sigma[i];
+        acc += rb * rb - ra * ra;
+      }
       batch.push_back(acc);
     }
   if (batch.size() < 2) return 0;
@@ -1018,6 +1014,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       std::vector<std::vector<double>> matched;
       std::vector<std::size_t> matched_region;
       std::size_t n_crossing = 0;  // matched starts at ratio crossings (the first ones)
+      std::vector<Prediction> crossing_runs;  // their runs, made for the gate below
       if (two_modes) {
         std::vector<Crossing> cand;
         std::vector<std::size_t> cand_region;
@@ -1084,7 +1081,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
             ctx.region = regions[matched_region[q]];
             batch_c.push_back(pr.physics(matched[q]));
           }
-          const auto runs_c = ev.run(batch_c);
+          auto runs_c = ev.run(batch_c);
           double best_c = 1e300;
           for (const Prediction& p : runs_c)
             if (p.ok) best_c = std::min(best_c, weighted_residual(obs, p, obs.train).squaredNorm());
@@ -1095,6 +1092,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
                 c.effect, best_c, chi2_0, kRatioStartShare);
             matched.clear();
             matched_region.clear();
+          } else {
+            crossing_runs = std::move(runs_c);
           }
         }
         if (!matched.empty()) {
@@ -1113,7 +1112,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       if (matched.empty())
         for (std::size_t k = 0; k < starts.size(); ++k)
           starts[k][0] = match_frequency(starts[k][0], w_cal, probe_s[k]);
-      for (std::size_t k = 0; k < starts.size(); ++k) {
+      // The crossing starts were run for the gate; the other starts are run here.
+      for (std::size_t k = crossing_runs.size(); k < starts.size(); ++k) {
         ctx.region = regions[start_region[k]];
         batch_s.push_back(pr.physics(starts[k]));
       }
@@ -1121,7 +1121,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       starts.push_back(z0);
       start_region.push_back(0);
       batch_s.push_back(pr.physics(z0));
-      const auto runs_s = ev.run(batch_s);
+      std::vector<Prediction> runs_s = std::move(crossing_runs);
+      for (Prediction& p : ev.run(batch_s)) runs_s.push_back(std::move(p));
       double best_chi = 1e300;
       std::size_t best_region = 0;
       // The best start of each region.

@@ -6,6 +6,8 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -92,6 +94,25 @@ Eigen::VectorXd weighted_residual(const Observations& obs, const Prediction& p,
     r[k++] = p.ok ? (p.y[i] - obs.y[i]) / obs.sigma[i] : 100.0;
   }
   return r;
+}
+
+std::vector<std::vector<std::size_t>> component_series(const Observations& obs, double t_from,
+                                                       bool positions_first,
+                                                       const std::function<bool(std::size_t)>& keep) {
+  bool any_position = false;
+  if (positions_first)
+    for (const auto& r : obs.requests) any_position = any_position || !r.acceleration;
+  std::map<std::pair<int, int>, std::vector<std::size_t>> ser;
+  for (std::size_t i = 0; i < obs.size(); ++i) {
+    if (obs.t[i] < t_from || (keep && !keep(i))) continue;
+    if (any_position && obs.requests[static_cast<std::size_t>(obs.channel[i])].acceleration)
+      continue;
+    ser[{obs.channel[i], obs.component[i]}].push_back(i);
+  }
+  std::vector<std::vector<std::size_t>> out;
+  out.reserve(ser.size());
+  for (auto& [key, idx] : ser) out.push_back(std::move(idx));
+  return out;
 }
 
 int main_component(const Observations& obs, int channel) {

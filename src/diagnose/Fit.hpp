@@ -69,6 +69,14 @@ class Evaluator {
 //! run gives a large constant residual so optimisers step back.
 Eigen::VectorXd weighted_residual(const Observations& obs, const Prediction& p,
                                   const std::vector<char>& mask);
+//! The observations grouped into time series: the indices of each (channel, component), in
+//! time order, the series ordered by (channel, component). Only values at t >= t_from for
+//! which keep(i) holds (all when keep is empty); with positions_first, accelerometer channels
+//! are left out when the recording has a marker (acceleration weights the higher modes by
+//! omega^2, so a frequency read off them differs).
+std::vector<std::vector<std::size_t>> component_series(
+    const Observations& obs, double t_from = -std::numeric_limits<double>::infinity(),
+    bool positions_first = false, const std::function<bool(std::size_t)>& keep = {});
 //! The component (0, 1, 2) of a channel whose observed values vary most.
 int main_component(const Observations& obs, int channel);
 //! Root mean square of (pred - obs) over mask: of the positions (m) when the recording has

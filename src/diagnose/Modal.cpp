@@ -3,7 +3,6 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <utility>
 
 namespace gen4d::diagnose {
@@ -16,21 +15,18 @@ struct Series {
 
 std::vector<Series> free_series(const Observations& obs, const std::vector<double>& y,
                                 double t_from) {
-  bool any_position = false;
-  for (const auto& r : obs.requests) any_position = any_position || !r.acceleration;
-  std::map<std::pair<int, int>, Series> ser;
-  for (std::size_t i = 0; i < obs.size(); ++i) {
-    if (obs.t[i] < t_from || !std::isfinite(y[i])) continue;
-    if (any_position && obs.requests[static_cast<std::size_t>(obs.channel[i])].acceleration)
-      continue;
-    Series& s = ser[{obs.channel[i], obs.component[i]}];
-    s.t.push_back(obs.t[i]);
-    s.y.push_back(y[i]);
-    s.w.push_back(obs.sigma[i] > 0 ? 1 / obs.sigma[i] : 1.0);
-  }
   std::vector<Series> out;
-  for (auto& [key, s] : ser)
-    if (s.t.size() >= 8) out.push_back(std::move(s));
+  for (const auto& idx :
+       component_series(obs, t_from, true, [&](std::size_t i) { return std::isfinite(y[i]); })) {
+    if (idx.size() < 8) continue;
+    Series s;
+    for (std::size_t i : idx) {
+      s.t.push_back(obs.t[i]);
+      s.y.push_back(y[i]);
+      s.w.push_back(obs.sigma[i] > 0 ? 1 / obs.sigma[i] : 1.0);
+    }
+    out.push_back(std::move(s));
+  }
   return out;
 }
 
