@@ -493,6 +493,65 @@ TEST(DiagnoseFit, HorizonStopsRunsAndContinuationFitsAStiffRootFromOutOfPhase) {
       std::exp(rp.z[1]), rp.runs);
 }
 
+TEST(DiagnoseFit, ClampDampingIsFoundWithTheEffectsOwnBoundsAndSteps) {
+  // Noiseless markers of the small cantilever held by a compliant, damped clamp (0.4 E/h,
+  // damping 1e-3 s times that: the blind generator's clamp). The fit is set up as diagnose
+  // sets up a refit, bounds and finite-difference steps from the effect's ParamSpecs, and
+  // starts where a refit does: the stiffness off, the damping at its null value 0.
+  const VoxelModel m(deck());
+  Observations obs;
+  obs.requests = tip_request(m, 1.0, 0.01);
+  const Physics nominal = m.nominal();
+  const double k_ref = nominal.youngs_modulus / m.h();
+  Physics truth = nominal;
+  truth.clamp_stiffness = 0.4 * k_ref;
+  truth.clamp_damping = 1e-3 * truth.clamp_stiffness;
+  const Trace tr = m.run(truth, obs.requests);
+  ASSERT_TRUE(tr.ok);
+  add_noiseless(obs, tr);
+  Evaluator ev(MPI_COMM_WORLD, m, obs);
+  const Effect& clamp = find_effect("clamp_compliance");
+  EffectContext ctx;
+  ctx.model = &m;
+  ctx.base = nominal;
+  ctx.omega = first_mode_omega(tr, obs.requests);
+  ASSERT_GT(ctx.omega, 0);
+  const auto specs = clamp.params(ctx, "");
+  ASSERT_EQ(specs.size(), 2u);
+  auto problem = [&](const std::vector<ParamSpec>& sp) {
+    LsqProblem pb;
+    pb.mask = &obs.train;
+    for (const ParamSpec& s : sp) {
+      pb.lo.push_back(s.log ? std::log(s.lo) : s.lo / s.scale);
+      pb.hi.push_back(s.log ? std::log(s.hi) : s.hi / s.scale);
+      pb.step.push_back(s.log ? 1e-2 : 1e-3 * (s.hi - s.lo) / s.scale);  // as diagnose's refits
+    }
+    pb.physics = [&, sp](const std::vector<double>& z) {
+      Physics p = nominal;
+      clamp.apply("", {std::exp(z[0]), z[1] * sp[1].scale}, ctx, p);
+      return p;
+    };
+    return pb;
+  };
+  const std::vector<double> z0 = {std::log(1.2 * truth.clamp_stiffness), 0.0};
+  const LsqResult r = least_squares(ev, problem(specs), z0, 15);
+  EXPECT_NEAR(std::exp(r.z[0]) / truth.clamp_stiffness, 1.0, 1e-2);
+  EXPECT_NEAR(r.z[1] * specs[1].scale / truth.clamp_damping, 1.0, 5e-2);
+  // The damping's earlier spec, in Pa s/m (scale 1) up to 1e4 times this bound: its steps
+  // barely moved it (TAO's bounded Newton method is not invariant to units), and its
+  // finite-difference step was 1e4 times longer. The same fit stops far from the truth
+  // (measured: chi2 1.9e6, damping 2.3 Pa s/m of 12000).
+  std::vector<ParamSpec> old_spec = specs;
+  old_spec[1].hi *= 1e4;
+  old_spec[1].scale = 1;
+  const LsqResult ro = least_squares(ev, problem(old_spec), z0, 8);
+  EXPECT_GT(ro.chi2, 1e3 * std::max(r.chi2, 1.0));
+  std::printf("clamp: stiffness %.5g (truth %.5g), damping %.5g (truth %.5g), chi2 %.3g, %ld "
+              "runs; the earlier damping spec: damping %.4g, chi2 %.3g\n",
+              std::exp(r.z[0]), truth.clamp_stiffness, r.z[1] * specs[1].scale,
+              truth.clamp_damping, r.chi2, r.runs, ro.z[1], ro.chi2);
+}
+
 TEST(DiagnoseModal, TwoModesFromUnevenNoisySamplesAndNoSecondWhenItIsAbsent) {
   // Four markers sampled every 10 ms with 3 ms of jitter for 2 s after a release at 0.3 s: a
   // first mode (5 mm), its harmonic 2 omega1 (1 mm, from large rotations), a second mode of

@@ -160,10 +160,10 @@ Observations build_observations(const VoxelModel& model, const Recording& rec, d
 
 //! Internal coordinate of a parameter value and back.
 double to_z(const ParamSpec& s, double v) {
-  return s.log ? std::log(std::max(v, 1e-300)) : v;
+  return s.log ? std::log(std::max(v, 1e-300)) : v / s.scale;
 }
 double from_z(const ParamSpec& s, double z) {
-  return s.log ? std::exp(z) : z;
+  return s.log ? std::exp(z) : z * s.scale;
 }
 
 //! Weighted residuals per (channel, component) series in time order, for whiteness.
@@ -875,7 +875,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     for (const auto& s : specs) {
       pr.lo.push_back(to_z(s, s.lo));
       pr.hi.push_back(to_z(s, s.hi));
-      pr.step.push_back(s.log ? 1e-2 : 1e-2 * (s.hi - s.lo) / 10);
+      pr.step.push_back(s.log ? 1e-2 : 1e-2 * (to_z(s, s.hi) - to_z(s, s.lo)) / 10);
     }
     pr.physics = [&e, &ctx, &base_physics, specs, variant](const std::vector<double>& z) {
       Physics p = base_physics(z);

@@ -234,9 +234,15 @@ class ClampCompliance final : public Effect {
     return "lower frequencies (mostly the first mode), motion at the support, mode-shape change";
   }
   std::vector<ParamSpec> params(const EffectContext& c, const std::string&) const override {
+    // Stiffness from compliant (1e-3 E/h) to rigid (1e4 E/h, the null value). Damping up to
+    // E/(h omega), a dashpot whose force at the dominant frequency is that of an E/h spring:
+    // heavily damped for any clamp compliant enough to be seen (stiffness below ~3 E/h); the
+    // optimiser works on it in units of 1 % of that. The bound also sets the fit's
+    // finite-difference step (1e-3 of the range): it was 1e4 E/(h omega), a step of 1.8e7
+    // Pa s/m on the blind clamp-1, 800 times its true damping of 2.2e4.
     const double k = c.base.youngs_modulus / c.model->h();
     return {{"stiffness", "Pa/m", 1e-3 * k, 1e4 * k, true},
-            {"damping", "Pa s/m", 0.0, 1e4 * k / c.omega, false}};
+            {"damping", "Pa s/m", 0.0, k / c.omega, false, 1e-2 * k / c.omega}};
   }
   Groups probe_groups(const EffectContext& c, const std::string&) const override {
     const double k = c.base.youngs_modulus / c.model->h();

@@ -30,11 +30,15 @@ struct EffectContext {
   BoxRegion region;
 };
 
-//! One parameter in natural units; the optimiser works on log(value) when `log` is set.
+//! One parameter in natural units; the optimiser works on log(value) when `log` is set, else
+//! on value / scale. TAO's bounded Newton method is not invariant to a parameter's units: a
+//! parameter whose typical values are far from 1 (a clamp's damping, 1e4 Pa s/m) barely moves
+//! in its steps, so `scale` should be a typical magnitude.
 struct ParamSpec {
   std::string name, unit;
   double lo = 0, hi = 0;  //!< bounds, natural units
   bool log = false;
+  double scale = 1;  //!< linear parameters: typical magnitude, natural units
 };
 
 class Effect {
