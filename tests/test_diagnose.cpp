@@ -546,10 +546,11 @@ TEST(DiagnoseFit, ClampDampingIsFoundWithTheEffectsOwnBoundsAndSteps) {
   old_spec[1].scale = 1;
   const LsqResult ro = least_squares(ev, problem(old_spec), z0, 8);
   EXPECT_GT(ro.chi2, 1e3 * std::max(r.chi2, 1.0));
-  std::printf("clamp: stiffness %.5g (truth %.5g), damping %.5g (truth %.5g), chi2 %.3g, %ld "
-              "runs; the earlier damping spec: damping %.4g, chi2 %.3g\n",
-              std::exp(r.z[0]), truth.clamp_stiffness, r.z[1] * specs[1].scale,
-              truth.clamp_damping, r.chi2, r.runs, ro.z[1], ro.chi2);
+  std::printf(
+      "clamp: stiffness %.5g (truth %.5g), damping %.5g (truth %.5g), chi2 %.3g, %ld "
+      "runs; the earlier damping spec: damping %.4g, chi2 %.3g\n",
+      std::exp(r.z[0]), truth.clamp_stiffness, r.z[1] * specs[1].scale, truth.clamp_damping, r.chi2,
+      r.runs, ro.z[1], ro.chi2);
 }
 
 TEST(DiagnoseModal, TwoModesFromUnevenNoisySamplesAndNoSecondWhenItIsAbsent) {

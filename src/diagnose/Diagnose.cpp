@@ -1013,7 +1013,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       // that both modes start in phase.
       std::vector<std::vector<double>> matched;
       std::vector<std::size_t> matched_region;
-      std::size_t n_crossing = 0;  // matched starts at ratio crossings (the first ones)
+      std::size_t n_crossing = 0;             // matched starts at ratio crossings (the first ones)
       std::vector<Prediction> crossing_runs;  // their runs, made for the gate below
       if (two_modes) {
         std::vector<Crossing> cand;

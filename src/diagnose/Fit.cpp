@@ -96,9 +96,9 @@ Eigen::VectorXd weighted_residual(const Observations& obs, const Prediction& p,
   return r;
 }
 
-std::vector<std::vector<std::size_t>> component_series(const Observations& obs, double t_from,
-                                                       bool positions_first,
-                                                       const std::function<bool(std::size_t)>& keep) {
+std::vector<std::vector<std::size_t>> component_series(
+    const Observations& obs, double t_from, bool positions_first,
+    const std::function<bool(std::size_t)>& keep) {
   bool any_position = false;
   if (positions_first)
     for (const auto& r : obs.requests) any_position = any_position || !r.acceleration;
