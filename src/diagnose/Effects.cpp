@@ -94,8 +94,9 @@ class Plasticity final : public Effect {
     return "permanent set after the load is removed; extra decay while yielding";
   }
   std::vector<ParamSpec> params(const EffectContext& c, const std::string&) const override {
+    // Hardening in units of the probes' 0.02 E (in Pa, its steps left it where it started).
     return {{"yield_stress", "Pa", 0.05 * c.max_mises, 2.0 * c.max_mises, true},
-            {"hardening", "Pa", 0.0, c.base.youngs_modulus, false}};
+            {"hardening", "Pa", 0.0, c.base.youngs_modulus, false, 0.02 * c.base.youngs_modulus}};
   }
   Groups probe_groups(const EffectContext& c, const std::string&) const override {
     const double H = 0.02 * c.base.youngs_modulus;
