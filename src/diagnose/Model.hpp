@@ -134,10 +134,14 @@ class VoxelModel {
   std::vector<std::array<int, 8>> vox_node_;
   std::vector<std::array<long, 3>> vox_ijk_;
   std::vector<Vec3d> X_;
-  std::vector<double> mass_;        //!< per node, kg per unit density
-  std::vector<char> fixed_;         //!< per node
-  std::vector<double> area_;        //!< exposed tributary area per node (not the clamp face)
-  std::vector<double> clamp_area_;  //!< tributary area of the clamp faces per fixed node
+  std::vector<double> mass_;  //!< per node, kg per unit density
+  std::vector<char> fixed_;   //!< per node
+  std::vector<double> area_;  //!< exposed tributary area per node (not the clamp face)
+  //! Lumped spring area of a fixed node on no clamp face (an interior anchor), else 0.
+  std::vector<double> clamp_area_;
+  //! Clamp faces (exposed voxel faces whose corners are all fixed): their corners, indexed
+  //! by the bits of the two face axes, so corners q and r share an edge when q ^ r has one bit.
+  std::vector<std::array<int, 4>> clamp_faces_;
   BoxRegion bounds_;
 };
 
