@@ -123,6 +123,28 @@ void add_noiseless(Observations& obs, const Trace& tr) {
       }
 }
 
+//! The fit of an effect's parameters alone (the baseline fixed at `base`), with bounds and
+//! finite-difference steps from its ParamSpecs as diagnose's refits take them.
+LsqProblem effect_problem(const Effect& e, const EffectContext& ctx, const Physics& base,
+                          const std::vector<ParamSpec>& sp, const Observations& obs) {
+  LsqProblem pb;
+  pb.mask = &obs.train;
+  for (const ParamSpec& s : sp) {
+    pb.lo.push_back(s.log ? std::log(s.lo) : s.lo / s.scale);
+    pb.hi.push_back(s.log ? std::log(s.hi) : s.hi / s.scale);
+    pb.step.push_back(s.log ? 1e-2 : 1e-3 * (s.hi - s.lo) / s.scale);
+  }
+  pb.physics = [&e, &ctx, base, sp](const std::vector<double>& z) {
+    std::vector<double> nat;
+    for (std::size_t q = 0; q < sp.size(); ++q)
+      nat.push_back(sp[q].log ? std::exp(z[q]) : z[q] * sp[q].scale);
+    Physics p = base;
+    e.apply("", nat, ctx, p);
+    return p;
+  };
+  return pb;
+}
+
 }  // namespace
 
 TEST(DiagnoseModel, RestIsRestAndLoadMovesTheTip) {
@@ -544,19 +566,7 @@ TEST(DiagnoseFit, ClampDampingIsFoundWithTheEffectsOwnBoundsAndSteps) {
   const auto specs = clamp.params(ctx, "");
   ASSERT_EQ(specs.size(), 2u);
   auto problem = [&](const std::vector<ParamSpec>& sp) {
-    LsqProblem pb;
-    pb.mask = &obs.train;
-    for (const ParamSpec& s : sp) {
-      pb.lo.push_back(s.log ? std::log(s.lo) : s.lo / s.scale);
-      pb.hi.push_back(s.log ? std::log(s.hi) : s.hi / s.scale);
-      pb.step.push_back(s.log ? 1e-2 : 1e-3 * (s.hi - s.lo) / s.scale);  // as diagnose's refits
-    }
-    pb.physics = [&, sp](const std::vector<double>& z) {
-      Physics p = nominal;
-      clamp.apply("", {std::exp(z[0]), z[1] * sp[1].scale}, ctx, p);
-      return p;
-    };
-    return pb;
+    return effect_problem(clamp, ctx, nominal, sp, obs);
   };
   const std::vector<double> z0 = {std::log(1.2 * truth.clamp_stiffness), 0.0};
   const LsqResult r = least_squares(ev, problem(specs), z0, 15);
@@ -604,19 +614,7 @@ TEST(DiagnoseFit, PlasticHardeningIsFoundWithTheEffectsOwnBoundsAndSteps) {
   ctx.omega = first_mode_omega(elastic, obs.requests);
   ctx.max_mises = elastic.max_mises;
   auto problem = [&](const std::vector<ParamSpec>& sp) {
-    LsqProblem pb;
-    pb.mask = &obs.train;
-    for (const ParamSpec& s : sp) {
-      pb.lo.push_back(s.log ? std::log(s.lo) : s.lo / s.scale);
-      pb.hi.push_back(s.log ? std::log(s.hi) : s.hi / s.scale);
-      pb.step.push_back(s.log ? 1e-2 : 1e-3 * (s.hi - s.lo) / s.scale);  // as diagnose's refits
-    }
-    pb.physics = [&, sp](const std::vector<double>& z) {
-      Physics p = nominal;
-      plastic.apply("", {std::exp(z[0]), z[1] * sp[1].scale}, ctx, p);
-      return p;
-    };
-    return pb;
+    return effect_problem(plastic, ctx, nominal, sp, obs);
   };
   const auto specs = plastic.params(ctx, "");
   ASSERT_EQ(specs.size(), 2u);
