@@ -21,6 +21,8 @@ struct DiagnoseOptions {
   double holdout = 0.25;             //!< fraction of time blocks and markers held out
   int refit = 3;                     //!< candidates refitted after screening
   int max_iterations = 10;           //!< TAO iterations per fit
+  //! Measure the model's spatial discretisation error (h/2 rerun) before keeping an effect.
+  bool refinement_check = true;
 };
 
 struct Channel;
@@ -29,6 +31,24 @@ struct Channel;
 //! (RSS / 3), corrected for the chi-square(3) median, is pooled over blocks. NaN without a
 //! full block.
 double estimate_noise(const std::vector<const Channel*>& channels);
+
+struct Observations;
+struct Prediction;
+struct Physics;
+struct RefinementCheck;
+//! The model's own spatial discretisation error (collective over comm): the calibrated
+//! baseline rerun on the deck's body voxelized at voxel_size / 2, its E refitted to the h run's
+//! prediction `base_pred` (one Gauss-Newton step from a pair of runs, and the match of the
+//! dominant frequency after t_free; the closest of the four runs is kept), and the remaining
+//! difference scaled by 4/3 (second order) to the error of the h model, in noise-weighted
+//! chi-square summed over the `scored` values of obs. X: the reference point of each channel of
+//! obs; channels whose point is not in the finer body are left out of the measure (those values
+//! count at the mean of the measured ones). Not done (with the reason) when the deck cannot be
+//! voxelized at h/2 or the run fails there.
+RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observations& obs,
+                                 const std::vector<std::array<double, 3>>& X,
+                                 const Physics& calibrated, const Prediction& base_pred,
+                                 const std::vector<char>& scored, double t_free);
 
 //! Runs the diagnosis (collective over comm); rank 0 writes DIR. Returns the exit code.
 //! Throws InputError for bad decks/recordings/options, RuntimeError when the model fails.

@@ -47,6 +47,21 @@ struct Signature {
   std::string detail;
 };
 
+//! The discretisation check: the calibrated baseline rerun on voxels of h/2 (E refitted), its
+//! difference scaled to the error of the h model (4/3, second order).
+struct RefinementCheck {
+  bool done = false;
+  std::string skipped;  //!< why it was not done (empty when done or not needed)
+  double voxel_size = 0;
+  std::size_t voxels = 0, channels = 0;  //!< voxels at h/2; channels measured
+  double youngs_modulus = 0;             //!< E refitted at h/2
+  double chi2 = 0;      //!< noise-weighted squared error summed over the scored values
+  double noise_sd = 0;  //!< rms of the error in noise sd
+  double rms = 0;       //!< rms of the error over position values, m
+  long runs = 0;
+  double run_seconds = 0;
+};
+
 struct Diagnosis {
   std::string deck, recording;
   std::string verdict = "none";  //!< missing_physics | none | ambiguous
@@ -78,6 +93,7 @@ struct Diagnosis {
   double dt = 0, numerical_change = 0;  //!< amplitude change of the dt/2 rerun, noise units
   double numerical_dispersion = 0;      //!< late-time rms difference of the dt/2 rerun
   bool dt_halved = false;
+  RefinementCheck refinement;
   std::vector<Signature> signatures;
   std::vector<Candidate> candidates;  //!< screened (gain) and refitted ones
   std::string ambiguity_experiment;
