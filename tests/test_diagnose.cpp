@@ -124,6 +124,23 @@ void add_noiseless(Observations& obs, const Trace& tr) {
       }
 }
 
+//! The calibration of log E and nu (E in [1e5, 1e6] Pa; nu up to diagnose's bound kMaxPoisson,
+//! as the element locks near 1/2) with finite-difference steps 1e-3 and nu_step.
+LsqProblem baseline_problem(const VoxelModel& m, const Observations& obs, double nu_step) {
+  LsqProblem pb;
+  pb.lo = {std::log(1e5), 0.0};
+  pb.hi = {std::log(1e6), 0.45};
+  pb.step = {1e-3, nu_step};
+  pb.mask = &obs.train;
+  pb.physics = [&m](const std::vector<double>& z) {
+    Physics p = m.nominal();
+    p.youngs_modulus = std::exp(z[0]);
+    p.poisson_ratio = z[1];
+    return p;
+  };
+  return pb;
+}
+
 //! The fit of an effect's parameters alone (the baseline fixed at `base`), with bounds and
 //! finite-difference steps from its ParamSpecs as diagnose's refits take them.
 LsqProblem effect_problem(const Effect& e, const EffectContext& ctx, const Physics& base,
@@ -436,17 +453,7 @@ TEST(DiagnoseFit, RanksShareRunsBitForBitAndTaoRecoversE) {
     for (const auto& ch : local.channel)
       for (double v : ch) ASSERT_EQ(v, preds[i].y[k++]) << "run " << i;
   }
-  LsqProblem pb;
-  pb.lo = {std::log(1e5), 0.0};
-  pb.hi = {std::log(1e6), 0.45};  // diagnose's bound (kMaxPoisson): the element locks near 1/2
-  pb.step = {1e-3, 2e-3};
-  pb.mask = &obs.train;
-  pb.physics = [&](const std::vector<double>& z) {
-    Physics p = m.nominal();
-    p.youngs_modulus = std::exp(z[0]);
-    p.poisson_ratio = z[1];
-    return p;
-  };
+  const LsqProblem pb = baseline_problem(m, obs, 2e-3);
   const LsqResult r = least_squares(ev, pb, {std::log(3e5), 0.3}, 15);
   EXPECT_NEAR(std::exp(r.z[0]) / 3.3e5, 1.0, 2e-3);
   EXPECT_LT(r.chi2 / static_cast<double>(obs.size()), 1.0);
@@ -492,17 +499,7 @@ TEST(DiagnoseFit, RefinementCheckMeasuresTheErrorTheVoxelsLeaveAfterCalibration)
   ASSERT_TRUE(tr.ok);
   add_noiseless(obs, tr);
   Evaluator ev(MPI_COMM_WORLD, m, obs);
-  LsqProblem pb;
-  pb.lo = {std::log(1e5), 0.0};
-  pb.hi = {std::log(1e6), 0.45};
-  pb.step = {1e-3, 1e-2};
-  pb.mask = &obs.train;
-  pb.physics = [&](const std::vector<double>& z) {
-    Physics p = m.nominal();
-    p.youngs_modulus = std::exp(z[0]);
-    p.poisson_ratio = z[1];
-    return p;
-  };
+  const LsqProblem pb = baseline_problem(m, obs, 1e-2);
   const LsqResult cal = least_squares(ev, pb, {std::log(3e5), 0.3}, 15);
   ASSERT_TRUE(cal.pred.ok);
   const Prediction uncal = ev.run_one(m.nominal());

@@ -44,11 +44,14 @@ struct RefinementCheck;
 //! chi-square summed over the `scored` values of obs. X: the reference point of each channel of
 //! obs; channels whose point is not in the finer body are left out of the measure (those values
 //! count at the mean of the measured ones). Not done (with the reason) when the deck cannot be
-//! voxelized at h/2 or the run fails there.
+//! voxelized at h/2 or the run fails there. When the closer run of the first pair (E not yet
+//! refitted, so an upper bound of the error) is already below decided_below, the check stops
+//! there and reports that bound (upper_bound).
 RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observations& obs,
                                  const std::vector<std::array<double, 3>>& X,
                                  const Physics& calibrated, const Prediction& base_pred,
-                                 const std::vector<char>& scored, double t_free);
+                                 const std::vector<char>& scored, double t_free,
+                                 double decided_below = 0);
 
 //! Runs the diagnosis (collective over comm); rank 0 writes DIR. Returns the exit code.
 //! Throws InputError for bad decks/recordings/options, RuntimeError when the model fails.

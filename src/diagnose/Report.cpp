@@ -135,10 +135,11 @@ std::string json(const Diagnosis& d) {
     kv("discretisation_check",
        fmt::format("{{\"done\": {}, \"skipped\": {}, \"voxel_size\": {}, \"voxels\": {}, "
                    "\"channels\": {}, \"youngs_modulus_refitted\": {}, \"error_rms\": {}, "
-                   "\"error_in_noise_sd\": {}, \"error_chi2_scored\": {}, \"runs\": {}}}",
+                   "\"error_in_noise_sd\": {}, \"error_chi2_scored\": {}, \"upper_bound\": {}, "
+                   "\"runs\": {}}}",
                    r.done ? "true" : "false", jstr(r.skipped), jnum(r.voxel_size), r.voxels,
                    r.channels, jnum(r.youngs_modulus), jnum(r.rms), jnum(r.noise_sd), jnum(r.chi2),
-                   r.runs));
+                   r.upper_bound ? "true" : "false", r.runs));
   }
   std::string sg = "[";
   for (std::size_t i = 0; i < d.signatures.size(); ++i)
@@ -235,11 +236,14 @@ std::string markdown(const Diagnosis& d) {
   if (d.refinement.done)
     m << fmt::format(
         "Discretisation check: the calibrated baseline rerun on voxels of {:g} m ({} voxels, E "
-        "refitted to {:.5g} Pa) puts the error of the model's own voxels at {:.3g} m rms ({:.3g} "
+        "{} {:.5g} Pa) puts the error of the model's own voxels at {}{:.3g} m rms ({:.3g} "
         "noise sd; 4/3 of the h-to-h/2 difference); an effect is kept only when it explains "
-        "more held-out chi-square than that ({:.4g}).\n\n",
-        d.refinement.voxel_size, d.refinement.voxels, d.refinement.youngs_modulus, d.refinement.rms,
-        d.refinement.noise_sd, d.refinement.chi2);
+        "more held-out chi-square than that ({:.4g}){}.\n\n",
+        d.refinement.voxel_size, d.refinement.voxels,
+        d.refinement.upper_bound ? "not refitted," : "refitted to", d.refinement.youngs_modulus,
+        d.refinement.upper_bound ? "at most " : "", d.refinement.rms, d.refinement.noise_sd,
+        d.refinement.chi2,
+        d.refinement.upper_bound ? "; this bound already decides, so E was not refitted" : "");
   else if (!d.refinement.skipped.empty())
     m << "Discretisation check not done: " << d.refinement.skipped << ".\n\n";
   m << fmt::format(

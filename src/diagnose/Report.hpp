@@ -55,9 +55,10 @@ struct RefinementCheck {
   double voxel_size = 0;
   std::size_t voxels = 0, channels = 0;  //!< voxels at h/2; channels measured
   double youngs_modulus = 0;             //!< E refitted at h/2
-  double chi2 = 0;      //!< noise-weighted squared error summed over the scored values
-  double noise_sd = 0;  //!< rms of the error in noise sd
-  double rms = 0;       //!< rms of the error over position values, m
+  double chi2 = 0;           //!< noise-weighted squared error summed over the scored values
+  double noise_sd = 0;       //!< rms of the error in noise sd
+  double rms = 0;            //!< rms of the error over position values, m
+  bool upper_bound = false;  //!< E not refitted: the first pair already decided (chi2 a bound)
   long runs = 0;
   double run_seconds = 0;
 };
