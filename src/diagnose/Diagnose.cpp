@@ -1680,6 +1680,9 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       }
     phase_done("discretisation check (h/2 rerun)");
     D.phases.back().runs = D.refinement.runs;  // the fine model's runs (ev counts none)
+  } else {
+    D.refinement.skipped = opt.refinement_check ? "not needed: no effect passed the other rules"
+                                                : "switched off (--no-refinement-check)";
   }
 
   // Per effect the variant with the best BIC, unless a variant with fewer parameters fits the
