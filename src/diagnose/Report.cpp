@@ -236,12 +236,12 @@ std::string markdown(const Diagnosis& d) {
   if (d.refinement.done)
     m << fmt::format(
         "Discretisation check: the calibrated baseline rerun on voxels of {:g} m ({} voxels, E "
-        "{} {:.5g} Pa) puts the error of the model's own voxels at {}{:.3g} m rms ({:.3g} "
+        "{} {:.5g} Pa) puts the error of the model's own voxels {}{:.3g} m rms ({:.3g} "
         "noise sd; 4/3 of the h-to-h/2 difference); an effect is kept only when it explains "
         "more held-out chi-square than that ({:.4g}){}.\n\n",
         d.refinement.voxel_size, d.refinement.voxels,
         d.refinement.upper_bound ? "not refitted," : "refitted to", d.refinement.youngs_modulus,
-        d.refinement.upper_bound ? "at most " : "", d.refinement.rms, d.refinement.noise_sd,
+        d.refinement.upper_bound ? "at most " : "at ", d.refinement.rms, d.refinement.noise_sd,
         d.refinement.chi2,
         d.refinement.upper_bound ? "; this bound already decides, so E was not refitted" : "");
   else if (!d.refinement.skipped.empty())
