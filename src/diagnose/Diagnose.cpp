@@ -359,14 +359,18 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
   for (std::size_t c = 0; c < obs.requests.size(); ++c)
     if (!usable[c]) fobs.requests[c].at = *any;  // sampled, never measured
   Evaluator fev(comm, *fine, fobs);
-  auto in = [&](std::size_t i) { return usable[static_cast<std::size_t>(obs.channel[i])] != 0; };
-  // Weighted squared distance to the h run over every usable value.
-  auto distance = [&](const Prediction& p) {
-    double s = 0;
-    for (std::size_t i = 0; i < obs.size(); ++i)
-      if (in(i)) s += std::pow((base_pred.y[i] - p.y[i]) / obs.sigma[i], 2);
-    return s;
-  };
+  // The fine runs are measured against the h run: fobs's values become its prediction.
+  fobs.y = base_pred.y;
+  std::vector<char> all_in(obs.size(), 0), scored_in(obs.size(), 0);
+  bool any_position = false;
+  for (std::size_t i = 0; i < obs.size(); ++i) {
+    const auto c = static_cast<std::size_t>(obs.channel[i]);
+    all_in[i] = usable[c];
+    scored_in[i] = usable[c] && scored[i];
+    any_position = any_position || (scored_in[i] && !obs.requests[c].acceleration);
+  }
+  const double n_scored = static_cast<double>(std::count(scored.begin(), scored.end(), 1));
+  const double n_in = static_cast<double>(std::count(scored_in.begin(), scored_in.end(), 1));
   constexpr double kStep = 5e-3;  // relative E step of the Gauss-Newton pair
   Physics p0 = calibrated, p1 = calibrated;
   p1.youngs_modulus *= 1 + kStep;
@@ -378,47 +382,35 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
     R.runs = fev.runs(), R.run_seconds = fev.run_seconds();
     return R;
   }
-  double rj = 0, jj = 0;
-  for (std::size_t i = 0; i < obs.size(); ++i) {
-    if (!in(i)) continue;
-    const double r = (base_pred.y[i] - got[0].y[i]) / obs.sigma[i];
-    const double j = (got[1].y[i] - got[0].y[i]) / obs.sigma[i];
-    rj += r * j, jj += j * j;
-  }
-  // The error of the h model measured by a fine run f, scaled and summed over the scored values
-  // (those out of the measure count at the mean of the measured ones).
-  auto measure = [&](std::size_t k) {
-    constexpr double kScale = 16.0 / 9.0;
-    const Prediction& f = got[k];
-    double chi2 = 0, pos2 = 0;
-    long n_scored = 0, n_in = 0, n_pos = 0;
-    for (std::size_t i = 0; i < obs.size(); ++i) {
-      if (!scored[i]) continue;
-      ++n_scored;
-      if (!in(i)) continue;
-      ++n_in;
-      const double d = base_pred.y[i] - f.y[i];
-      chi2 += kScale * std::pow(d / obs.sigma[i], 2);
-      if (!obs.requests[static_cast<std::size_t>(obs.channel[i])].acceleration)
-        pos2 += kScale * d * d, ++n_pos;
-    }
-    R.youngs_modulus = tried[k].youngs_modulus;
-    R.chi2 = n_in ? chi2 * static_cast<double>(n_scored) / static_cast<double>(n_in) : 0.0;
-    R.noise_sd = n_scored ? std::sqrt(R.chi2 / static_cast<double>(n_scored)) : 0.0;
-    R.rms = n_pos ? std::sqrt(pos2 / static_cast<double>(n_pos)) : std::nan("");
-  };
-  auto closest = [&] {
+  // Keeps the run closest to the h run (weighted, every usable value) and scales its
+  // difference to the error of the h model over the scored values (those out of the measure
+  // count at the mean of the measured ones).
+  auto measure_closest = [&] {
     std::size_t best = 0;
-    for (std::size_t k = 1; k < got.size(); ++k)
-      if (got[k].ok && distance(got[k]) < distance(got[best])) best = k;
-    return best;
+    double best_distance = std::numeric_limits<double>::infinity();
+    for (std::size_t k = 0; k < got.size(); ++k) {
+      if (!got[k].ok) continue;
+      const double d = weighted_residual(fobs, got[k], all_in).squaredNorm();
+      if (d < best_distance) best_distance = d, best = k;
+    }
+    constexpr double kScale = 4.0 / 3.0;
+    R.youngs_modulus = tried[best].youngs_modulus;
+    const double chi2 =
+        kScale * kScale * weighted_residual(fobs, got[best], scored_in).squaredNorm();
+    R.chi2 = n_in > 0 ? chi2 * n_scored / n_in : 0.0;
+    R.noise_sd = n_scored > 0 ? std::sqrt(R.chi2 / n_scored) : 0.0;
+    R.rms = any_position ? kScale * rms(fobs, got[best], scored_in) : std::nan("");
   };
   // Either run of the pair bounds the error from above (E not yet refitted): when that bound
   // is already below `decided_below`, the refit cannot change what the check decides.
-  measure(closest());
+  measure_closest();
   R.upper_bound = R.chi2 < decided_below;
   if (!R.upper_bound) {
-    const double s = jj > 0 ? std::clamp(rj / jj, -20.0, 20.0) : 0.0;  // at most ~10 % of E
+    // One Gauss-Newton step in log E from the pair, at most ~10 % of E.
+    const Eigen::VectorXd r0 = weighted_residual(fobs, got[0], all_in);
+    const Eigen::VectorXd j = weighted_residual(fobs, got[1], all_in) - r0;
+    const double jj = j.squaredNorm();
+    const double s = jj > 0 ? std::clamp(-r0.dot(j) / jj, -20.0, 20.0) : 0.0;
     std::vector<Physics> next;
     Physics pg = calibrated;
     pg.youngs_modulus *= std::pow(1 + kStep, s);
@@ -433,15 +425,14 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
     const auto more = fev.run(next);
     tried.insert(tried.end(), next.begin(), next.end());
     got.insert(got.end(), more.begin(), more.end());
-    measure(closest());
+    measure_closest();
   }
   R.runs = fev.runs();
   R.run_seconds = fev.run_seconds();
   R.done = true;
   log::info(
-      "discretisation check (h/2 rerun, {} voxels, E {} {:.5g} Pa): error of the h model {}{:.3g} "
-      "m "
-      "rms ({:.3g} noise sd), scored chi2 {:.4g} ({} runs)",
+      "discretisation check (h/2 rerun, {} voxels, E {} {:.5g} Pa): error of the h model "
+      "{}{:.3g} m rms ({:.3g} noise sd), scored chi2 {:.4g} ({} runs)",
       R.voxels, R.upper_bound ? "not refitted," : "refitted to", R.youngs_modulus,
       R.upper_bound ? "at most " : "", R.rms, R.noise_sd, R.chi2, R.runs);
   return R;
