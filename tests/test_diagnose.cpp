@@ -433,6 +433,66 @@ TEST(DiagnoseNoise, RecoversTheNoiseOfASmoothSignal) {
   EXPECT_NEAR(estimate_noise({&c}), 2e-4, 0.2e-4);
 }
 
+// The misfit budget bounds what any correction of the model can explain on held-out values.
+// Ten markers record a 22 rad/s swing plus a 119 rad/s mode (a period of 5 samples, which
+// leaks into the recording's cubic-window noise estimate and inflates the weights), with
+// white noise. The model has both modes but carries a smooth error b0; the perfect correction
+// (the true signal) explains the most any effect could. Over 20 noise draws the bound must
+// hold every time, and stay within half the noise's count of that gain (not vacuous); the
+// residual's noise estimate must undo the leak (within 15 % of the true sd).
+TEST(DiagnoseNoise, MisfitBudgetBoundsWhatAnyCorrectionExplains) {
+  const double sigma = 1e-4;
+  for (int seed = 0; seed < 20; ++seed) {
+    std::mt19937 rng(100 + seed);
+    std::normal_distribution<double> nd(0, sigma);
+    Observations obs;
+    std::vector<double> signal, model;
+    std::vector<Channel> raw(10);
+    for (int c = 0; c < 10; ++c) {
+      ChannelRequest r;
+      obs.requests.push_back(r);
+      obs.ids.push_back(std::to_string(c));
+      for (int k = 0; k < 200; ++k) {
+        const double t = 0.01 * k;
+        raw[static_cast<std::size_t>(c)].t.push_back(t);
+        raw[static_cast<std::size_t>(c)].value.push_back({0, 0, 0});
+        for (int d = 0; d < 3; ++d) {
+          const double a = 0.002 * (c + 1) * (d + 1);
+          const double sig = a * std::sin(22 * t + d) + 0.01 * a * std::sin(119 * t + c);
+          const double b0 = 1.2e-4 * std::sin(3 * t + c + d);  // the model's smooth error
+          signal.push_back(sig);
+          model.push_back(sig + b0);
+          obs.y.push_back(sig + nd(rng));
+          raw[static_cast<std::size_t>(c)].value.back()[static_cast<std::size_t>(d)] = obs.y.back();
+          obs.t.push_back(t);
+          obs.channel.push_back(c);
+          obs.component.push_back(d);
+          obs.train.push_back(c % 4 != 1);
+          obs.heldout.push_back(c % 4 == 1);
+        }
+      }
+    }
+    std::vector<const Channel*> chans;
+    for (const Channel& c : raw) chans.push_back(&c);
+    const double weight = estimate_noise(chans);
+    ASSERT_GT(weight, 1.2 * sigma) << "the fast mode should leak into the recording's estimate";
+    obs.sigma.assign(obs.size(), weight);
+    Prediction base, perfect;
+    base.ok = perfect.ok = true;
+    base.y = model;
+    perfect.y = signal;
+    const MisfitBudget B = misfit_budget(obs, base, obs.heldout);
+    const Eigen::VectorXd r0 = weighted_residual(obs, base, obs.heldout);
+    const Eigen::VectorXd r1 = weighted_residual(obs, perfect, obs.heldout);
+    const double gain = r0.squaredNorm() - r1.squaredNorm();
+    EXPECT_NEAR(B.scored_chi2, r0.squaredNorm(), 1e-9 * r0.squaredNorm());
+    EXPECT_NEAR(B.noise_sd, sigma, 0.15 * sigma) << "seed " << seed;
+    EXPECT_TRUE(B.evaluated);
+    EXPECT_GE(B.bound, gain) << "seed " << seed;
+    EXPECT_LE(B.bound, gain + 0.5 * static_cast<double>(r0.size())) << "seed " << seed;
+  }
+}
+
 TEST(DiagnoseFit, RanksShareRunsBitForBitAndTaoRecoversE) {
   const VoxelModel m(deck());
   Observations obs;

@@ -53,6 +53,18 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
                                  const std::vector<char>& scored, double t_free,
                                  double decided_below = 0);
 
+struct MisfitBudget;
+//! What a missing effect could explain at most of the calibrated baseline's misfit over the
+//! `scored` values of obs (noise-weighted chi-square): that misfit less the noise's share. The
+//! noise is estimated like estimate_noise, on the baseline's residual as well as on the
+//! recording, and the lower of the two is taken per kind (a fitted motion no longer leaks into
+//! the cubic windows); its share is counted at half that variance, less three standard
+//! deviations of its spread, and three of the noise along the effect's correction are added.
+//! `evaluated` when that share is at least a quarter of the misfit (otherwise the bound is far
+//! above any model error and not worth a discretisation check to compare with).
+MisfitBudget misfit_budget(const Observations& obs, const Prediction& base,
+                           const std::vector<char>& scored);
+
 //! Runs the diagnosis (collective over comm); rank 0 writes DIR. Returns the exit code.
 //! Throws InputError for bad decks/recordings/options, RuntimeError when the model fails.
 int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt);

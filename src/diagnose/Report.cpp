@@ -141,6 +141,14 @@ std::string json(const Diagnosis& d) {
                    r.channels, jnum(r.youngs_modulus), jnum(r.rms), jnum(r.noise_sd), jnum(r.chi2),
                    r.upper_bound ? "true" : "false", r.runs));
   }
+  {
+    const MisfitBudget& b = d.budget;
+    kv("misfit_budget",
+       fmt::format("{{\"evaluated\": {}, \"heldout_chi2\": {}, \"noise_chi2\": {}, "
+                   "\"noise_sd_residual\": {}, \"most_explainable\": {}, \"exhausted\": {}}}",
+                   b.evaluated ? "true" : "false", jnum(b.scored_chi2), jnum(b.noise_chi2),
+                   jnum(b.noise_sd), jnum(b.bound), b.exhausted ? "true" : "false"));
+  }
   std::string sg = "[";
   for (std::size_t i = 0; i < d.signatures.size(); ++i)
     sg += fmt::format("{}{{\"name\": {}, \"present\": {}, \"value\": {}, \"detail\": {}}}",
@@ -246,6 +254,22 @@ std::string markdown(const Diagnosis& d) {
         d.refinement.upper_bound ? "; this bound already decides, so E was not refitted" : "");
   else if (!d.refinement.skipped.empty())
     m << "Discretisation check not done: " << d.refinement.skipped << ".\n\n";
+  if (d.budget.evaluated)
+    m << fmt::format(
+        "Misfit budget: the calibrated baseline's held-out chi-square is {:.4g}, of which the "
+        "noise accounts for about {:.4g} (sd {:.3g} m, estimated on its residual); a missing "
+        "effect could explain at most {:.4g} (the noise counted at half, with 3-sd margins){}."
+        "\n\n",
+        d.budget.scored_chi2, d.budget.noise_chi2, d.budget.noise_sd, d.budget.bound,
+        d.budget.exhausted
+            ? fmt::format(", which is not more than the error of the model's own voxels ({:.4g}): "
+                          "no effect could be kept, and none was refitted",
+                          d.refinement.chi2)
+        : d.refinement.done
+            ? fmt::format(", more than the error of the model's own voxels ({}{:.4g}): the "
+                          "effects were refitted",
+                          d.refinement.upper_bound ? "at most " : "", d.refinement.chi2)
+            : std::string());
   m << fmt::format(
       "Misfit of the calibrated baseline: chi2/dof = {:.3g}, residual whiteness p = {:.2g} "
       "(lag-1 autocorrelation {:.2f}) -> {}.\n\n",

@@ -63,6 +63,18 @@ struct RefinementCheck {
   double run_seconds = 0;
 };
 
+//! The most held-out chi-square a missing effect could explain: the calibrated baseline's
+//! less the noise's share (see run_diagnose, the misfit budget). When that is not more than
+//! the discretisation check's error, no effect could be kept and none is refitted.
+struct MisfitBudget {
+  bool evaluated = false;  //!< the noise carries enough of the misfit for the test to pay
+  double scored_chi2 = 0;  //!< the calibrated baseline's, over the scored values
+  double noise_sd = 0;     //!< the noise of the baseline's residual (position), m
+  double noise_chi2 = 0;   //!< the noise's share of scored_chi2 at that estimate
+  double bound = 0;        //!< most an effect could explain (margins included)
+  bool exhausted = false;  //!< bound <= the discretisation check's chi2: nothing refitted
+};
+
 struct Diagnosis {
   std::string deck, recording;
   std::string verdict = "none";  //!< missing_physics | none | ambiguous
@@ -95,6 +107,7 @@ struct Diagnosis {
   double numerical_dispersion = 0;      //!< late-time rms difference of the dt/2 rerun
   bool dt_halved = false;
   RefinementCheck refinement;
+  MisfitBudget budget;
   std::vector<Signature> signatures;
   std::vector<Candidate> candidates;  //!< screened (gain) and refitted ones
   std::string ambiguity_experiment;
