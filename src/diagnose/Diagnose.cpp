@@ -1671,6 +1671,10 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   // runs that then explained half the voxels' error.)
   std::vector<std::array<double, 3>> channel_X;
   for (const Channel& ch : rec.channels) channel_X.push_back(ch.X);
+  auto check_phase_done = [&] {
+    phase_done("discretisation check (h/2 rerun)");
+    D.phases.back().runs = D.refinement.runs;  // the fine model's runs (ev counts none)
+  };
   D.budget = misfit_budget(obs, base.pred, scored);
   // The bound holds for values the fits do not see; fitted ones an effect can overfit.
   D.budget.evaluated = D.budget.evaluated && has_holdout;
@@ -1687,8 +1691,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
             ? fmt::format(", not more than the discretisation error ({:.4g}): nothing to refit",
                           D.refinement.chi2)
             : std::string());
-    phase_done("discretisation check (h/2 rerun)");
-    D.phases.back().runs = D.refinement.runs;
+    check_phase_done();
   }
   if (!D.budget.exhausted)
     for (std::size_t i : todo) refit_one(i);
@@ -1749,10 +1752,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
             explained, D.refinement.chi2);
         log::info("  {} {} not kept: {}", c.effect, c.variant, c.why);
       }
-    if (!reuse) {
-      phase_done("discretisation check (h/2 rerun)");
-      D.phases.back().runs = D.refinement.runs;  // the fine model's runs (ev counts none)
-    }
+    if (!reuse) check_phase_done();
   } else if (!D.refinement.done && D.refinement.skipped.empty()) {
     D.refinement.skipped = opt.refinement_check ? "not needed: no effect passed the other rules"
                                                 : "switched off (--no-refinement-check)";
@@ -1872,16 +1872,20 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       const Effect& e1 = find_effect(best->effect);
       const Effect& e2 = find_effect(second->effect);
       struct Trial {
-        const char* what;
+        bool load;  // else the density
         double factor;
+        const char* what;
       };
-      const Trial trials[4] = {{"load", 0.5}, {"load", 2.0}, {"density", 0.5}, {"density", 2.0}};
+      const Trial trials[4] = {{true, 0.5, "load"},
+                               {true, 2.0, "load"},
+                               {false, 0.5, "density"},
+                               {false, 2.0, "density"}};
       std::vector<Physics> batch_x;
       for (const Trial& tr : trials)
         for (int k = 0; k < 2; ++k) {
           const Candidate& c = k ? *second : *best;
           Physics p = effect_problem(k ? e2 : e1, c.variant).physics(c.z);
-          (std::string(tr.what) == "load" ? p.load_scale : p.density) *= tr.factor;
+          (tr.load ? p.load_scale : p.density) *= tr.factor;
           batch_x.push_back(p);
         }
       const auto pr = ev.run(batch_x);
@@ -1909,7 +1913,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
           "{:.3g} noise sd rms ({:.3g} m rms at the markers; chi-square {:.4g} over this "
           "recording's {} values); other changes tried, in noise sd rms: {}.",
           best->effect, second->effect,
-          std::string(trials[s].what) == "load"
+          trials[s].load
               ? fmt::format("with the applied load scaled by {:g}", trials[s].factor)
               : fmt::format("on a specimen of the same shape with {:g} times the density (another "
                             "material, or distributed mass added)",
