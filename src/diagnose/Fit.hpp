@@ -49,6 +49,7 @@ class Evaluator {
   const Observations& observations() const { return obs_; }
   const VoxelModel& model() const { return model_; }
   MPI_Comm comm() const { return comm_; }
+  int ranks() const { return size_; }
   //! Runs stop at time t (infinity: the recording's end). Values after t are NaN and must be
   //! outside the mask of whatever reads them (a fit of the first part of a recording).
   void set_horizon(double t);

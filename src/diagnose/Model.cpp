@@ -490,6 +490,18 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   }
   SpMat K0(ndof, ndof);
   K0.setFromTriplets(trip.begin(), trip.end());
+  // Where each voxel's free 3x3 node blocks sit among K0's values (the tangent has K0's
+  // pattern): the tangent is added there directly, in the order of the loops above, instead
+  // of through triplets sorted anew on every rebuild.
+  std::vector<int> kslot;
+  kslot.reserve(trip.size());
+  for (const auto& tr3 : trip) {
+    const int col = tr3.col();
+    const int* begin = K0.innerIndexPtr() + K0.outerIndexPtr()[col];
+    const int* end = K0.innerIndexPtr() + K0.outerIndexPtr()[col + 1];
+    kslot.push_back(static_cast<int>(std::lower_bound(begin, end, tr3.row()) - K0.innerIndexPtr()));
+  }
+  trip = {};
   // Mass: lumped (a diagonal, M), or Mc = theta consistent + (1 - theta) lumped, the
   // consistent part the trilinear shape functions' integral (the bubbles carry no mass).
   // Mass-proportional damping uses the same matrix; Cd is the diagonal rest (air drag, clamp
@@ -758,8 +770,9 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   // (region factor, relaxed viscous part).
   auto tangent = [&]() -> bool {
     PhaseTimer timer(tr.time_tangent);
-    std::vector<Eigen::Triplet<double>> tk;
-    tk.reserve(nv * 576);
+    double* kval = Kt.valuePtr();
+    std::fill(kval, kval + Kt.nonZeros(), 0.0);
+    std::size_t slot = 0;
     const double vscale = visco ? 1.0 - ph.prony_g * rv / (1.0 + rv) : 1.0;
     const int nshape = bubbles ? kShapes : 8;
     Condensed ce;
@@ -820,14 +833,17 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
                   t += S.dN[q][l][c] * 0.5 * (D[3 * a + c][3 * b + e] + D[3 * b + e][3 * a + c]);
                 T[l][a][b][e] = w * t;
               }
+        // Ke is symmetric (D symmetrised): its upper triangle only, mirrored below.
         for (int l = 0; l < nshape; ++l)
           for (int a = 0; a < 3; ++a)
-            for (int m = 0; m < nshape; ++m)
-              for (int b = 0; b < 3; ++b)
+            for (int m = l; m < nshape; ++m)
+              for (int b = m == l ? a : 0; b < 3; ++b)
                 Ke(3 * l + a, 3 * m + b) += T[l][a][b][0] * S.dN[q][m][0] +
                                             T[l][a][b][1] * S.dN[q][m][1] +
                                             T[l][a][b][2] * S.dN[q][m][2];
       }
+      for (int j = 0; j < 3 * nshape; ++j)
+        for (int i = j + 1; i < 3 * nshape; ++i) Ke(i, j) = Ke(j, i);
       if (bubbles) {
         if (!condense(Ke, ce)) return false;
         condL[vx] = ce.L;
@@ -842,12 +858,10 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
           const int dm = dof[static_cast<std::size_t>(vox_node_[vx][m])];
           if (dm < 0) continue;
           for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b)
-              tk.emplace_back(dl + a, dm + b, ce.Kc(3 * l + a, 3 * m + b));
+            for (int b = 0; b < 3; ++b) kval[kslot[slot++]] += ce.Kc(3 * l + a, 3 * m + b);
         }
       }
     }
-    Kt.setFromTriplets(tk.begin(), tk.end());
     return true;
   };
 
