@@ -240,7 +240,7 @@ void evaluate_at(TaoContext& c, const std::vector<double>& z) {
   std::vector<std::vector<double>> zs;
   // Only as many columns as save a round of the Jacobian's batch (n mod ranks): a column run
   // ahead that saves none only slows the trial run beside it (two runs at once share the
-  // memory bus; with 2 parameters on 2 ranks a calibration took 78 s instead of 68).
+  // memory bus and caches).
   const auto P = static_cast<std::size_t>(std::max(c.ev->ranks(), 1));
   const std::size_t ahead = z.size() % P;
   for (std::size_t j = 0; j < ahead; ++j) {
