@@ -124,6 +124,16 @@ void add_noiseless(Observations& obs, const Trace& tr) {
       }
 }
 
+//! Noiseless observations of the tip of m to t_end (every 0.01 s) from a run of truth; none
+//! (y empty) when the run fails.
+Observations tip_observations(const VoxelModel& m, const Physics& truth, double t_end) {
+  Observations obs;
+  obs.requests = tip_request(m, t_end, 0.01);
+  const Trace tr = m.run(truth, obs.requests);
+  if (tr.ok) add_noiseless(obs, tr);
+  return obs;
+}
+
 //! The calibration of log E and nu (E in [1e5, 1e6] Pa; nu up to diagnose's bound kMaxPoisson,
 //! as the element locks near 1/2) with finite-difference steps 1e-3 and nu_step.
 LsqProblem baseline_problem(const VoxelModel& m, const Observations& obs, double nu_step) {
@@ -495,13 +505,10 @@ TEST(DiagnoseNoise, MisfitBudgetBoundsWhatAnyCorrectionExplains) {
 
 TEST(DiagnoseFit, RanksShareRunsBitForBitAndTaoRecoversE) {
   const VoxelModel m(deck());
-  Observations obs;
-  obs.requests = tip_request(m, 0.6, 0.01);
   Physics truth = m.nominal();
   truth.youngs_modulus *= 1.1;
-  const Trace tr = m.run(truth, obs.requests);
-  ASSERT_TRUE(tr.ok);
-  add_noiseless(obs, tr);
+  const Observations obs = tip_observations(m, truth, 0.6);
+  ASSERT_FALSE(obs.y.empty());
   Evaluator ev(MPI_COMM_WORLD, m, obs);
   std::vector<Physics> batch(3, m.nominal());
   batch[1].youngs_modulus *= 1.05;
@@ -542,14 +549,11 @@ TEST(DiagnoseFit, ColumnsRunAheadLeaveAFitUnchangedBitForBit) {
   // a Jacobian column ahead. The fit over all ranks must equal, bit for bit and in its own run
   // count, the same fit made by this rank alone (MPI_COMM_SELF: nothing run ahead).
   const VoxelModel m(deck());
-  Observations obs;
-  obs.requests = tip_request(m, 0.6, 0.01);
   Physics truth = m.nominal();
   truth.youngs_modulus *= 1.1;
   truth.rayleigh_alpha = 2.0;
-  const Trace tr = m.run(truth, obs.requests);
-  ASSERT_TRUE(tr.ok);
-  add_noiseless(obs, tr);
+  const Observations obs = tip_observations(m, truth, 0.6);
+  ASSERT_FALSE(obs.y.empty());
   LsqProblem pb = baseline_problem(m, obs, 2e-3);
   pb.lo.push_back(std::log(0.01));
   pb.hi.push_back(std::log(100.0));
