@@ -526,6 +526,17 @@ TEST(DiagnoseFit, RanksShareRunsBitForBitAndTaoRecoversE) {
   EXPECT_LT(r.chi2 / static_cast<double>(obs.size()), 1.0);
   EXPECT_FALSE(r.abandoned);
 
+  // Restarted where it ended, the fit is at its floor: its Gauss-Newton step there is below
+  // the step tolerance (1e-3 finite-difference steps), and the fit has converged. The restart
+  // keeps its start and costs its Jacobian alone: no line-search point is run, neither the
+  // Gauss-Newton halvings (up to 30 lone runs before) nor TAO's fallback searches.
+  const LsqResult again = least_squares(ev, pb, r.z, 15);
+  EXPECT_GT(again.skipped, 0);
+  EXPECT_LE(again.chi2, r.chi2);
+  for (std::size_t j = 0; j < r.z.size(); ++j)
+    EXPECT_LT(std::abs(again.z[j] - r.z[j]), 1e-3 * pb.step[j]) << "parameter " << j;
+  EXPECT_EQ(again.runs, static_cast<long>(r.z.size()) + 1);
+
   // Given a bar it cannot get under soon (a passing fit elsewhere reached 1e4), the same fit
   // stops in the slow part of its E-nu valley, after 3 iterations or more, with fewer runs.
   LsqProblem barred = pb;

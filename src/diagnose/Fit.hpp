@@ -114,6 +114,7 @@ struct LsqResult {
   long runs = 0;
   std::string reason;      //!< TAO's converged reason
   bool abandoned = false;  //!< stopped by LsqProblem::abandon_chi2
+  long skipped = 0;        //!< line-search points not run: below the step tolerance
 };
 
 //! The ends of the time windows of a continuation fit: t_from + 1.5 T 2^k (T = 2 pi / omega,
