@@ -548,13 +548,6 @@ TEST(DiagnoseFit, RanksShareRunsBitForBitAndTaoRecoversE) {
   EXPECT_LT(cut.runs, r.runs);
 }
 
-// The discretisation check measures the error of the deck's voxels: data from the same deck on
-// voxels of h/4 (nearer the continuum than the check's own h/2), the h model calibrated to
-// them (E, nu), and the check's estimate of the error left after calibration compared with
-// the one actually left. Richardson's estimate is exact only in the asymptotic range, which a
-// beam two voxels thick is not in; the check guards selection, so it must have the error's
-// size: within a factor 2 in chi-square. (Measured: 1.52x; 1.49x over 0.5 s; against an h/3 truth,
-// which keeps 1/9 of the error of h itself, 2.0x over 0.4 s.)
 TEST(DiagnoseFit, ColumnsRunAheadLeaveAFitUnchangedBitForBit) {
   // Three parameters (log E, nu, mass damping): on 2 ranks a lone trial point's idle rank runs
   // a Jacobian column ahead. The fit over all ranks must equal, bit for bit and in its own run
@@ -590,6 +583,13 @@ TEST(DiagnoseFit, ColumnsRunAheadLeaveAFitUnchangedBitForBit) {
   EXPECT_NEAR(std::exp(a.z[2]), 2.0, 0.1);
 }
 
+// The discretisation check measures the error of the deck's voxels: data from the same deck on
+// voxels of h/4 (nearer the continuum than the check's own h/2), the h model calibrated to
+// them (E, nu), and the check's estimate of the error left after calibration compared with
+// the one actually left. Richardson's estimate is exact only in the asymptotic range, which a
+// beam two voxels thick is not in; the check guards selection, so it must have the error's
+// size: within a factor 2 in chi-square. (Measured: 1.52x; 1.49x over 0.5 s; against an h/3 truth,
+// which keeps 1/9 of the error of h itself, 2.0x over 0.4 s.)
 TEST(DiagnoseFit, RefinementCheckMeasuresTheErrorTheVoxelsLeaveAfterCalibration) {
   const Config cfg = deck();
   Config truth_cfg = cfg;

@@ -292,7 +292,7 @@ void jacobian_at(TaoContext& c, const std::vector<double>& z) {
   c.chi2_jac = c.r_cached.squaredNorm();
   std::string zs;
   for (double v : z) zs += fmt::format(" {:.5g}", v);
-  log::info("    fit: chi2 {:.6g} at z ={} ({} runs so far)", c.r_cached.squaredNorm(), zs, c.runs);
+  log::info("    fit: chi2 {:.6g} at z ={} ({} runs so far)", c.chi2_jac, zs, c.runs);
 }
 
 //! TAO's default test, plus: stop when two successive iterations each lower the objective by
