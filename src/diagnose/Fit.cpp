@@ -34,12 +34,49 @@ void Evaluator::set_horizon(double t) {
   }
 }
 
+std::string physics_key(const Physics& p, double horizon) {
+  // Every field, in declaration order; a field added to Physics must be added here (the size
+  // check below fails on the platform the project is built on until it is).
+#if defined(__GLIBCXX__) && defined(__x86_64__)
+  static_assert(sizeof(Physics) == 296, "Physics changed: add the new field to physics_key");
+#endif
+  std::string k;
+  auto put = [&k](const auto& v) { k.append(reinterpret_cast<const char*>(&v), sizeof v); };
+  put(p.element);
+  put(p.consistent_mass_fraction);
+  put(p.law.size());
+  k += p.law;
+  put(p.youngs_modulus), put(p.poisson_ratio), put(p.density);
+  for (double g : p.gravity) put(g);
+  put(p.dt), put(p.rayleigh_alpha), put(p.rayleigh_beta), put(p.prony_g), put(p.prony_tau);
+  put(p.yield_stress), put(p.hardening), put(p.has_region);
+  for (double x : p.region.lo) put(x);
+  for (double x : p.region.hi) put(x);
+  put(p.region_factor), put(p.clamp_stiffness), put(p.clamp_damping), put(p.ground);
+  put(p.ground_height), put(p.ground_friction), put(p.drag_linear), put(p.drag_quadratic);
+  put(p.coulomb_accel), put(p.load_scale), put(p.newton_tolerance), put(horizon);
+  return k;
+}
+
 std::vector<Prediction> Evaluator::run(const std::vector<Physics>& batch) {
   std::vector<Prediction> out(batch.size());
+  // What to run: each physics neither in the memo nor earlier in this batch, once.
+  std::vector<std::string> keys(batch.size());
+  std::vector<std::size_t> todo;                       // batch indices run here
+  std::vector<std::ptrdiff_t> from(batch.size(), -1);  // else: memo entry, or -2 - todo slot
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    keys[i] = physics_key(batch[i], horizon_);
+    for (std::size_t m = 0; m < memo_.size() && from[i] == -1; ++m)
+      if (memo_[m].first == keys[i]) from[i] = static_cast<std::ptrdiff_t>(m);
+    for (std::size_t q = 0; q < todo.size() && from[i] == -1; ++q)
+      if (keys[todo[q]] == keys[i]) from[i] = -2 - static_cast<std::ptrdiff_t>(q);
+    if (from[i] == -1) todo.push_back(i);
+  }
   double local_seconds = 0;
   const bool cut = std::isfinite(horizon_);
-  for (std::size_t i = 0; i < batch.size(); ++i) {
-    if (static_cast<int>(i % static_cast<std::size_t>(size_)) != rank_) continue;
+  for (std::size_t q = 0; q < todo.size(); ++q) {
+    if (static_cast<int>(q % static_cast<std::size_t>(size_)) != rank_) continue;
+    const std::size_t i = todo[q];
     const auto t0 = std::chrono::steady_clock::now();
     const Trace tr = model_.run(batch[i], cut ? requests_ : obs_.requests);
     local_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -59,9 +96,9 @@ std::vector<Prediction> Evaluator::run(const std::vector<Physics>& batch) {
     }
   }
   // Share every result from the rank that computed it.
-  for (std::size_t i = 0; i < batch.size(); ++i) {
-    const int owner = static_cast<int>(i % static_cast<std::size_t>(size_));
-    Prediction& p = out[i];
+  for (std::size_t q = 0; q < todo.size(); ++q) {
+    const int owner = static_cast<int>(q % static_cast<std::size_t>(size_));
+    Prediction& p = out[todo[q]];
     double head[4] = {p.ok ? 1.0 : 0.0, p.max_mises, p.max_speed,
                       static_cast<double>(p.failure.size())};
     MPI_Bcast(head, 4, MPI_DOUBLE, owner, comm_);
@@ -76,10 +113,26 @@ std::vector<Prediction> Evaluator::run(const std::vector<Physics>& batch) {
       MPI_Bcast(p.y.data(), static_cast<int>(p.y.size()), MPI_DOUBLE, owner, comm_);
     }
   }
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    if (from[i] >= 0)
+      out[i] = memo_[static_cast<std::size_t>(from[i])].second;
+    else if (from[i] <= -2)
+      out[i] = out[todo[static_cast<std::size_t>(-2 - from[i])]];
+  }
+  // The new results join the memo, the oldest leaving it (the same on every rank).
+  for (std::size_t i : todo) {
+    memo_.emplace_back(keys[i], out[i]);
+    memo_bytes_ += sizeof(double) * out[i].y.size();
+    while (memo_bytes_ > kMemoBytes) {
+      memo_bytes_ -= sizeof(double) * memo_.front().second.y.size();
+      memo_.pop_front();
+    }
+  }
   double all = 0;
   MPI_Allreduce(&local_seconds, &all, 1, MPI_DOUBLE, MPI_SUM, comm_);
   seconds_ += all;
-  runs_ += static_cast<long>(batch.size());
+  runs_ += static_cast<long>(todo.size());
+  reused_ += static_cast<long>(batch.size() - todo.size());
   return out;
 }
 
@@ -525,28 +578,40 @@ std::vector<double> continuation_windows(const Observations& obs, double t_from,
   return w;
 }
 
+LsqResult window_fit(Evaluator& ev, const LsqProblem& prob, const std::vector<double>& z0, double w,
+                     int iterations) {
+  const Observations& obs = ev.observations();
+  std::vector<char> mask = *prob.mask;
+  for (std::size_t i = 0; i < obs.size(); ++i)
+    if (obs.t[i] > w) mask[i] = 0;
+  LsqResult rw;
+  if (std::none_of(mask.begin(), mask.end(), [](char m) { return m != 0; })) {
+    rw.z = z0;
+    rw.reason = "no value in the window";
+    return rw;
+  }
+  LsqProblem pw = prob;
+  pw.mask = &mask;
+  pw.abandon_chi2 = std::numeric_limits<double>::infinity();  // set for the whole recording
+  struct Horizon {  // runs stop at w for this fit only, whatever way it ends
+    Evaluator& ev;
+    Horizon(Evaluator& e, double t) : ev(e) { ev.set_horizon(t); }
+    ~Horizon() { ev.set_horizon(std::numeric_limits<double>::infinity()); }
+  } horizon(ev, w);
+  rw = least_squares(ev, pw, z0, iterations, false);
+  log::info("    fit: window t <= {:.3g} s: chi2 {:.6g} ({} runs)", w, rw.chi2, rw.runs);
+  return rw;
+}
+
 LsqResult continuation_fit(Evaluator& ev, const LsqProblem& prob, std::vector<double> z0,
                            const std::vector<double>& windows, int window_iterations,
                            int final_iterations, bool final_jacobian) {
   const Observations& obs = ev.observations();
   long runs = 0, skipped = 0;
   for (double w : windows) {
-    std::vector<char> mask = *prob.mask;
-    for (std::size_t i = 0; i < obs.size(); ++i)
-      if (obs.t[i] > w) mask[i] = 0;
-    if (std::none_of(mask.begin(), mask.end(), [](char m) { return m != 0; })) continue;
-    LsqProblem pw = prob;
-    pw.mask = &mask;
-    pw.abandon_chi2 = std::numeric_limits<double>::infinity();  // set for the whole recording
-    struct Horizon {  // runs stop at w for this fit only, whatever way it ends
-      Evaluator& ev;
-      Horizon(Evaluator& e, double t) : ev(e) { ev.set_horizon(t); }
-      ~Horizon() { ev.set_horizon(std::numeric_limits<double>::infinity()); }
-    } horizon(ev, w);
-    const LsqResult rw = least_squares(ev, pw, z0, window_iterations, false);
+    const LsqResult rw = window_fit(ev, prob, z0, w, window_iterations);
     runs += rw.runs;
     skipped += rw.skipped;
-    log::info("    fit: window t <= {:.3g} s: chi2 {:.6g} ({} runs)", w, rw.chi2, rw.runs);
     if (rw.pred.ok) z0 = rw.z;
   }
   LsqResult r;

@@ -5,9 +5,11 @@
 #include <mpi.h>
 
 #include <Eigen/Dense>
+#include <deque>
 #include <functional>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "diagnose/Model.hpp"
@@ -38,13 +40,18 @@ struct Prediction {
   double max_mises = 0, max_speed = 0;
 };
 
-//! Runs batches of forward models, each on one rank, results shared by all ranks.
+//! Runs batches of forward models, each on one rank, results shared by all ranks. A run is
+//! deterministic, so a physics already run (at the same horizon) is taken from a memo of the
+//! latest results (kMemoBytes of predicted values at most) instead of run again, on every rank
+//! alike.
 class Evaluator {
  public:
+  static constexpr std::size_t kMemoBytes = std::size_t{256} << 20;
   Evaluator(MPI_Comm comm, const VoxelModel& model, const Observations& obs);
   std::vector<Prediction> run(const std::vector<Physics>& batch);
   Prediction run_one(const Physics& p) { return run({p})[0]; }
-  long runs() const { return runs_; }
+  long runs() const { return runs_; }              //!< forward runs made
+  long reused() const { return reused_; }          //!< runs asked for and taken from the memo
   double run_seconds() const { return seconds_; }  //!< summed over ranks' runs
   const Observations& observations() const { return obs_; }
   const VoxelModel& model() const { return model_; }
@@ -62,9 +69,14 @@ class Evaluator {
   const Observations& obs_;
   double horizon_ = std::numeric_limits<double>::infinity();
   std::vector<ChannelRequest> requests_;  //!< obs_.requests cut at horizon_
-  long runs_ = 0;
+  long runs_ = 0, reused_ = 0;
   double seconds_ = 0;
+  std::deque<std::pair<std::string, Prediction>> memo_;  //!< oldest first
+  std::size_t memo_bytes_ = 0;
 };
+
+//! The bytes of every field of a Physics (with a horizon): equal keys, equal runs.
+std::string physics_key(const Physics& p, double horizon);
 
 //! Weighted residual (pred - obs) / sigma on the observations where mask is set; a failed
 //! run gives a large constant residual so optimisers step back.
@@ -121,6 +133,11 @@ struct LsqResult {
 //! the dominant period) while before the recording's last sample less one period; empty when
 //! the recording is too short for a window.
 std::vector<double> continuation_windows(const Observations& obs, double t_from, double omega);
+
+//! least_squares on the recording up to time w (runs stopped there; the mask cut there too),
+//! from z0; with nothing to fit there, z0 unchanged and no run.
+LsqResult window_fit(Evaluator& ev, const LsqProblem& prob, const std::vector<double>& z0, double w,
+                     int iterations);
 
 //! least_squares on the recording up to each window end in turn (runs stopped there), each
 //! fit starting from the last, then on all of it (final_iterations). Trajectory least squares

@@ -947,7 +947,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   }
   record(0);
   std::vector<double> a_prev = a;
-  const double tol_du = 1e-5 * h;
+  const double tol_du = ph.newton_tolerance * h;
   for (long s = 1; s <= nsteps; ++s) {
     const double t1 = dt * static_cast<double>(s);
     // Predictor: the trapezoidal update with a1 guessed as the mean of the last two

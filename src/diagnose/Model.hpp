@@ -58,6 +58,10 @@ struct Physics {
   double coulomb_accel = 0;
   //! Multiplies the deck's [[force]] loads (to design a separating experiment).
   double load_scale = 1;
+  //! A step's Newton iteration stops at a correction below this many voxel sizes (every node
+  //! and bubble amplitude): 1e-5 keeps a fit's finite differences (1e-3 to 1e-2 relative
+  //! parameter steps) clean of the iteration's own error.
+  double newton_tolerance = 1e-5;
 };
 
 //! A point attached to the body: the voxel containing it and trilinear weights of its nodes.

@@ -187,9 +187,9 @@ std::string json(const Diagnosis& d) {
     costs += fmt::format("{}{{\"phase\": {}, \"runs\": {}, \"wall_seconds\": {}}}", i ? ", " : "",
                          jstr(d.phases[i].name), d.phases[i].runs, jnum(d.phases[i].wall_seconds));
   kv("cost",
-     fmt::format("{{\"forward_runs\": {}, \"run_seconds\": {}, \"wall_seconds\": {}, "
-                 "\"ranks\": {}, \"phases\": {}]}}",
-                 d.runs, jnum(d.run_seconds), jnum(d.wall_seconds), d.ranks, costs),
+     fmt::format("{{\"forward_runs\": {}, \"runs_reused\": {}, \"run_seconds\": {}, "
+                 "\"wall_seconds\": {}, \"ranks\": {}, \"phases\": {}]}}",
+                 d.runs, d.runs_reused, jnum(d.run_seconds), jnum(d.wall_seconds), d.ranks, costs),
      true);
   return s + "}\n";
 }
@@ -315,8 +315,10 @@ std::string markdown(const Diagnosis& d) {
     m << fmt::format(" Here z = {:.2f} and the gap is {:.3g} x the unexplained misfit, against {}.",
                      d.vuong_z, d.runner_up_gap, d.runner_up);
   m << "\n\n";
-  m << fmt::format("Cost: {} forward runs, {:.1f} s of runs, {:.1f} s wall on {} rank(s).\n\n",
-                   d.runs, d.run_seconds, d.wall_seconds, d.ranks);
+  m << fmt::format(
+      "Cost: {} forward runs ({} more asked for again and taken from the memo), {:.1f} s of "
+      "runs, {:.1f} s wall on {} rank(s).\n\n",
+      d.runs, d.runs_reused, d.run_seconds, d.wall_seconds, d.ranks);
   if (!d.phases.empty()) {
     m << "| phase | forward runs | wall s |\n|---|---:|---:|\n";
     for (const auto& p : d.phases)

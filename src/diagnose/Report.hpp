@@ -114,6 +114,7 @@ struct Diagnosis {
   std::vector<std::string> contenders;  //!< the two effects an ambiguous verdict cannot separate
   std::string unexplained;
   long runs = 0;
+  long runs_reused = 0;  //!< runs asked for again and taken from the evaluator's memo
   double wall_seconds = 0, run_seconds = 0;
   //! Forward runs and wall seconds by phase of the method, in order.
   struct Phase {
