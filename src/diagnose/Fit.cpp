@@ -246,8 +246,6 @@ struct TaoContext {
   //! The linearisation point whose line search fell below the step tolerance.
   std::vector<double> z_converged;
   long max_runs = 1000;  //!< forward runs one fit may spend
-  //! Forward-difference points run ahead with a lone trial point (see evaluate_at).
-  std::vector<std::pair<std::vector<double>, Prediction>> ahead;
 };
 
 std::vector<double> to_std(Vec X) {
@@ -286,15 +284,14 @@ std::vector<double> fd_point(const TaoContext& c, const std::vector<double>& z, 
 }
 
 //! One point's run. A lone run leaves ranks - 1 ranks idle; they run the first columns of the
-//! point's forward-difference Jacobian meanwhile, which jacobian_at takes if the point is
-//! accepted (a Gauss-Newton fit accepts most trial points): with 2 ranks and 3 parameters an
-//! iteration is 2 rounds of runs instead of 3. The fit itself is unchanged, bit for bit (a
-//! run's result does not depend on the rank or batch), and counts its runs as before (c.runs
-//! drives its budget); the evaluator counts the runs made ahead too.
+//! point's forward-difference Jacobian meanwhile, which jacobian_at finds in the evaluator's
+//! memo if the point is accepted (a Gauss-Newton fit accepts most trial points): with 2 ranks
+//! and 3 parameters an iteration is 2 rounds of runs instead of 3. The fit itself is
+//! unchanged, bit for bit (a run's result does not depend on the rank or batch), and counts
+//! its runs as before (c.runs drives its budget); the evaluator counts the runs made ahead too.
 void evaluate_at(TaoContext& c, const std::vector<double>& z) {
   if (c.have_cached && c.z_cached == z) return;
   std::vector<Physics> batch = {c.prob->physics(z)};
-  std::vector<std::vector<double>> zs;
   // Only as many columns as save a round of the Jacobian's batch (n mod ranks): a column run
   // ahead that saves none only slows the trial run beside it (two runs at once share the
   // memory bus and caches).
@@ -302,45 +299,33 @@ void evaluate_at(TaoContext& c, const std::vector<double>& z) {
   const std::size_t ahead = z.size() % P;
   for (std::size_t j = 0; j < ahead; ++j) {
     double h;
-    zs.push_back(fd_point(c, z, j, h));
-    batch.push_back(c.prob->physics(zs.back()));
+    batch.push_back(c.prob->physics(fd_point(c, z, j, h)));
   }
-  auto preds = c.ev->run(batch);
+  const auto preds = c.ev->run(batch);
   ++c.runs;
-  c.ahead.clear();
-  for (std::size_t j = 0; j < zs.size(); ++j) c.ahead.emplace_back(zs[j], std::move(preds[j + 1]));
   note(c, z, preds[0], weighted_residual(c.ev->observations(), preds[0], *c.prob->mask));
 }
 
 //! Forward-difference Jacobian at z, columns computed in one parallel batch (those run ahead
-//! with z itself taken as they are).
+//! with z itself come from the evaluator's memo).
 void jacobian_at(TaoContext& c, const std::vector<double>& z) {
   const std::size_t n = z.size();
   std::vector<Physics> batch;
   std::vector<double> h(n);
-  std::vector<const Prediction*> col(n, nullptr);
-  std::vector<std::size_t> slot(n, 0);
   const bool need_base = !(c.have_cached && c.z_cached == z);
   if (need_base) batch.push_back(c.prob->physics(z));
-  for (std::size_t j = 0; j < n; ++j) {
-    const std::vector<double> zj = fd_point(c, z, j, h[j]);
-    for (const auto& a : c.ahead)
-      if (!need_base && a.first == zj) col[j] = &a.second;
-    if (col[j]) continue;
-    slot[j] = batch.size();
-    batch.push_back(c.prob->physics(zj));
-  }
+  const std::size_t first = batch.size();
+  for (std::size_t j = 0; j < n; ++j) batch.push_back(c.prob->physics(fd_point(c, z, j, h[j])));
   const auto preds = c.ev->run(batch);
   c.runs += static_cast<long>(n + (need_base ? 1 : 0));
   if (need_base)
     note(c, z, preds[0], weighted_residual(c.ev->observations(), preds[0], *c.prob->mask));
   c.J.resize(c.r_cached.size(), static_cast<Eigen::Index>(n));
   for (std::size_t j = 0; j < n; ++j) {
-    const Prediction& pj = col[j] ? *col[j] : preds[slot[j]];
-    const Eigen::VectorXd rj = weighted_residual(c.ev->observations(), pj, *c.prob->mask);
+    const Eigen::VectorXd rj =
+        weighted_residual(c.ev->observations(), preds[first + j], *c.prob->mask);
     c.J.col(static_cast<Eigen::Index>(j)) = (rj - c.r_cached) / h[j];
   }
-  c.ahead.clear();
   c.z_jac = z;
   c.chi2_jac = c.r_cached.squaredNorm();
   std::string zs;
