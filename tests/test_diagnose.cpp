@@ -503,6 +503,50 @@ TEST(DiagnoseNoise, MisfitBudgetBoundsWhatAnyCorrectionExplains) {
   }
 }
 
+// The rest frequency (inverse iteration on the linear stiffness and the mass) is the first
+// mode's frequency of the motion, and it moves with a region's stiffness and with the voxel
+// size as the motion's does: diagnose matches E to it instead of running the model.
+TEST(DiagnoseModel, RestFrequencyIsTheMotionsFirstMode) {
+  const VoxelModel m(deck());
+  const auto r = tip_request(m, 1.0, 0.002);
+  Physics p = m.nominal();
+  p.gravity = {0, 0, 0};
+  const Vec3d y_axis{0, 1, 0};
+  auto motion = [&](const VoxelModel& model, const Physics& ph) {
+    const auto req = tip_request(model, 1.0, 0.002);
+    const Trace tr = model.run(ph, req);
+    EXPECT_TRUE(tr.ok) << tr.failure;
+    return first_mode_omega(tr, req);
+  };
+  const double w_run = motion(m, p), w_rest = m.rest_frequency(p, y_axis);
+  ASSERT_GT(w_run, 0);
+  EXPECT_NEAR(w_rest / w_run, 1.0, 2e-3);  // 1.0005
+  // A soft root quarter: both frequencies fall, by the same factor.
+  Physics soft = p;
+  soft.has_region = true;
+  soft.region = {{0, 0, 0}, {0.03, 0.02, 0.02}};
+  soft.region_factor = 0.4;
+  const double drop_run = motion(m, soft) / w_run,
+               drop_rest = m.rest_frequency(soft, y_axis) / w_rest;
+  EXPECT_LT(drop_rest, 0.9);
+  EXPECT_NEAR(drop_rest / drop_run, 1.0, 1e-3);  // 0.6861 and 0.6857
+  // Voxels of half the size are softer in bending: the same ratio again.
+  Config fine_cfg = deck();
+  fine_cfg.voxel_size /= 2;
+  const VoxelModel fine(fine_cfg);
+  const double fine_run = motion(fine, p) / w_run,
+               fine_rest = fine.rest_frequency(p, y_axis) / w_rest;
+  EXPECT_LT(fine_rest, 1.0);
+  EXPECT_NEAR(fine_rest / fine_run, 1.0, 1e-3);  // 0.99653 and 0.99616: 10 % of the shift
+  // E scales it as sqrt(E); a spring clamp has no rest frequency of this kind.
+  Physics stiff = p;
+  stiff.youngs_modulus *= 4;
+  EXPECT_NEAR(m.rest_frequency(stiff, y_axis) / w_rest, 2.0, 1e-9);
+  Physics sprung = p;
+  sprung.clamp_stiffness = 1e7;
+  EXPECT_TRUE(std::isnan(m.rest_frequency(sprung, y_axis)));
+}
+
 TEST(DiagnoseFit, RanksShareRunsBitForBitAndTaoRecoversE) {
   const VoxelModel m(deck());
   Physics truth = m.nominal();
@@ -538,12 +582,13 @@ TEST(DiagnoseFit, RanksShareRunsBitForBitAndTaoRecoversE) {
   EXPECT_EQ(again.runs, static_cast<long>(r.z.size()) + 1);
 
   // Given a bar it cannot get under soon (a passing fit elsewhere reached 1e4), the same fit
-  // stops in the slow part of its E-nu valley, after 3 iterations or more, with fewer runs.
+  // stops in the slow part of its E-nu valley, after kAbandonAfter iterations or more, with
+  // fewer runs.
   LsqProblem barred = pb;
   barred.abandon_chi2 = 1e4;
   const LsqResult cut = least_squares(ev, barred, {std::log(3e5), 0.3}, 15);
   EXPECT_TRUE(cut.abandoned);
-  EXPECT_GE(cut.iterations, 3);
+  EXPECT_GE(cut.iterations, kAbandonAfter);
   EXPECT_GT(cut.chi2, 1e4);
   EXPECT_LT(cut.runs, r.runs);
 }

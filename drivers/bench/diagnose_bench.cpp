@@ -17,6 +17,8 @@
 // ("trilinear"), with the cost ratio of the two.
 // --voxel-size 0.005 times the model of diagnose's discretisation check (h/2: 8x the voxels),
 // --newton-tolerance another Newton stop (diagnose's check runs its h/2 model at 1e-4),
+// --refresh-contraction another rule for rebuilding the lagged tangent (a correction that
+// shrinks by less than this factor rebuilds it; the default 0.5),
 // --case one of the runs alone, --poisson another Poisson ratio (a calibration that absorbs a
 // soft region bends it to its bound, 0.45).
 #include <chrono>
@@ -94,7 +96,7 @@ std::string json(const char* name, const Result& r) {
 int main(int argc, char** argv) {
   using namespace gen4d;
   int repeat = 3;
-  double voxel_size = 0.01, poisson = 0.3, newton_tolerance = 0;
+  double voxel_size = 0.01, poisson = 0.3, newton_tolerance = 0, refresh = 0;
   std::string only;
   return driver::main_with(
       argc, argv, "Speed of the gen4d diagnose forward model (JSON on stdout)",
@@ -107,6 +109,9 @@ int main(int argc, char** argv) {
         app.add_option("--newton-tolerance", newton_tolerance,
                        "Newton's stop in voxel sizes (0: the model's default)")
             ->check(CLI::Range(0.0, 1e-2));
+        app.add_option("--refresh-contraction", refresh,
+                       "tangent rebuilt when a correction shrinks by less (0: the default)")
+            ->check(CLI::Range(0.0, 1.0));
         app.add_option("--case", only, "only this run")
             ->check(CLI::IsMember({"baseline", "nominal", "damping", "corotated", "plastic"}));
       },
@@ -134,6 +139,7 @@ int main(int argc, char** argv) {
         diagnose::Physics nominal = model.nominal();
         if (newton_tolerance > 0)
           base.newton_tolerance = nominal.newton_tolerance = newton_tolerance;
+        if (refresh > 0) base.refresh_contraction = nominal.refresh_contraction = refresh;
         diagnose::Physics damped = nominal;
         damped.rayleigh_beta = 2e-3;
         diagnose::Physics corotated = nominal;

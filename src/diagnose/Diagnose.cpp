@@ -56,6 +56,11 @@ constexpr std::size_t kRaceKeep = 2;
 constexpr double kRatioStartShare = 0.5;
 //! Face moves of a region: the best this many moves of a round get such a short fit.
 constexpr std::size_t kMoveFits = 2;
+//! ... unless the move's matched chi-square is above this multiple of the current box's: the
+//! most a short fit was seen to remove is half (heterogeneity-soft's winning move, 8078 ->
+//! 4029), so such a move cannot pass the current box (a last round's fits from 2.8x and
+//! 3.1x reached 2.7x and 3.1x there, 32 runs).
+constexpr double kMoveFitReach = 2.0;
 //! Iterations of each window fit of a continuation fit (continuation_fit).
 constexpr int kWindowIterations = 4;
 
@@ -240,6 +245,24 @@ double dominant_omega(const Observations& obs, const std::vector<double>& y, dou
   return omega;
 }
 
+//! The axis (unit vector) of the position channel component whose recorded values vary most
+//! after t_from: the direction of the motion dominant_omega reads its frequency off.
+Vec3d motion_direction(const Observations& obs, double t_from) {
+  double best_var = -1;
+  int axis = 2;
+  for (const auto& idx : component_series(obs, t_from, true)) {
+    if (idx.empty()) continue;
+    double m = 0, var = 0;
+    for (std::size_t i : idx) m += obs.y[i];
+    m /= static_cast<double>(idx.size());
+    for (std::size_t i : idx) var += (obs.y[i] - m) * (obs.y[i] - m);
+    if (var > best_var) best_var = var, axis = obs.component[idx.front()];
+  }
+  Vec3d d{0, 0, 0};
+  d[static_cast<std::size_t>(axis)] = 1;
+  return d;
+}
+
 //! The modal frequencies of a run at a value zp (internal coordinate) of an effect's first
 //! parameter.
 struct ModePoint {
@@ -378,8 +401,22 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
   // The fine runs stop Newton at 1e-4 of their voxel (5e-7 m on the blind beams): 0.5 % of
   // the errors this check measures (1.1-1.5e-4 m there) and of the pair's difference (E by
   // 0.5 %), and a quarter fewer iterations per step (4.8 -> 3.5 on bench_diagnose's beam).
+  // They also rebuild their lagged tangent only when a correction shrinks by less than 0.8
+  // (0.5 on the h model): a rebuild costs ~150 of their iterations, against ~27 of the h
+  // model's (bench_diagnose --voxel-size 0.005 --poisson 0.45 --newton-tolerance 1e-4:
+  // 132 -> 71 factorizations, 83.6 -> 70.6 s per run).
   Physics fine_physics = calibrated;
   fine_physics.newton_tolerance = 1e-4;
+  fine_physics.refresh_contraction = 0.8;
+  // The pair starts at the E that gives the h/2 voxels the h voxels' rest frequency (the finer
+  // voxels are softer in bending): at the calibrated E itself the two drift apart in phase,
+  // and the pair's bound on the h model's error is then mostly a phase error that E absorbs
+  // (heterogeneity-soft: a bound that decided nothing, and two more fine runs).
+  const Vec3d dir = motion_direction(obs, t_free);
+  const double w_h_rest = VoxelModel(cfg).rest_frequency(calibrated, dir);
+  const double w_f_rest = fine->rest_frequency(calibrated, dir);
+  if (std::isfinite(w_h_rest) && std::isfinite(w_f_rest) && w_f_rest > 0)
+    fine_physics.youngs_modulus *= std::clamp(std::pow(w_h_rest / w_f_rest, 2), 0.9, 1.1);
   Physics p0 = fine_physics, p1 = fine_physics;
   p1.youngs_modulus *= 1 + kStep;
   std::vector<Physics> tried = {p0, p1};
@@ -441,8 +478,8 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
   log::info(
       "discretisation check (h/2 rerun, {} voxels, E {} {:.5g} Pa): error of the h model "
       "{}{:.3g} m rms ({:.3g} noise sd), scored chi2 {:.4g} ({} runs)",
-      R.voxels, R.upper_bound ? "not refitted," : "refitted to", R.youngs_modulus,
-      R.upper_bound ? "at most " : "", R.rms, R.noise_sd, R.chi2, R.runs);
+      R.voxels, R.upper_bound ? "at the h voxels' rest frequency," : "refitted to",
+      R.youngs_modulus, R.upper_bound ? "at most " : "", R.rms, R.noise_sd, R.chi2, R.runs);
   return R;
 }
 
@@ -1441,7 +1478,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         // Each move is tried at the factor f' that keeps the region's added compliance
         // (1/f - 1) V (moving a face is a question of shape: at a fixed factor a larger box is
         // simply a softer body), with E rescaled so that the dominant frequency stays that of
-        // the current fit (else the phase error hides a better shape): two runs per move.
+        // the current fit (else the phase error hides a better shape): from the two boxes' rest
+        // frequencies, or, on the secant path, from a run of the move's motion.
         std::vector<std::pair<BoxRegion, std::vector<double>>> tries;
         const BoxRegion keep = ctx.region;
         auto volume = [](const BoxRegion& b) {
@@ -1466,15 +1504,36 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         };
         std::vector<std::size_t> all(tries.size());
         for (std::size_t i = 0; i < tries.size(); ++i) all[i] = i;
-        const auto probe_b = run_tries(all);
+        const bool secant = two_modes && !hypotheses.empty();
+        // Without the secant below, a move's E follows from rest frequencies (no run: the
+        // ratio of the current box's to the move's at the same E), where it took a run per
+        // move before (the dominant frequency of the move's motion, 18 runs a round).
+        std::vector<Prediction> probe_b;
+        bool rest_matched = false;
+        if (!secant) {
+          const Vec3d dir = motion_direction(obs, t_free);
+          const double w_cur = model.rest_frequency(pr.physics(r.z), dir);
+          std::vector<double> z_rest(tries.size());
+          rest_matched = std::isfinite(w_cur);
+          for (std::size_t i = 0; i < tries.size() && rest_matched; ++i) {
+            ctx.region = tries[i].first;
+            const double w = model.rest_frequency(pr.physics(tries[i].second), dir);
+            rest_matched = std::isfinite(w) && w > 0;
+            z_rest[i] =
+                std::clamp(tries[i].second[0] + 2 * std::log(w_cur / w), pr.lo[0], pr.hi[0]);
+          }
+          ctx.region = keep;
+          if (rest_matched)
+            for (std::size_t i = 0; i < tries.size(); ++i) tries[i].second[0] = z_rest[i];
+        }
+        if (!rest_matched) probe_b = run_tries(all);
         // With two modes recorded, each move is put back onto both frequencies: a second probe
         // at the current factor (or 10 % past the first away from the null value, when the
         // two nearly agree) gives the move's own slopes of the frequency ratio and of omega1,
         // and the factor and E go where both meet the recorded ones. (A slope borrowed from
         // the current box fails where it matters: taking the clamped voxel out of a stiff
         // root quarter makes the ratio 7x more sensitive to the factor.)
-        bool secant = false;
-        if (two_modes && !hypotheses.empty()) {
+        if (secant) {
           std::vector<std::vector<double>> z2(tries.size());
           std::vector<Physics> batch2;
           for (std::size_t i = 0; i < tries.size(); ++i) {
@@ -1487,7 +1546,6 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
           }
           ctx.region = keep;
           const auto probe2 = ev.run(batch2);
-          secant = true;
           for (std::size_t i = 0; i < tries.size(); ++i) {
             const ModePoint pa = mode_point(probe_b[i], tries[i].second[2]),
                             pb = mode_point(probe2[i], z2[i][2]);
@@ -1503,7 +1561,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
                            pr.lo[0], pr.hi[0]);
           }
         }
-        if (!secant)
+        if (!secant && !rest_matched)
           for (std::size_t i = 0; i < tries.size(); ++i)
             tries[i].second[0] = match_frequency(tries[i].second[0], w_fit, probe_b[i]);
         const auto pb_runs = run_tries(all);
@@ -1589,7 +1647,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
                     [&](std::size_t a, std::size_t b) { return chi_matched[a] < chi_matched[b]; });
           for (std::size_t q = 0; q < std::min(by_chi.size(), secant ? 0 : kMoveFits); ++q) {
             const std::size_t i = by_chi[q];
-            if (!(chi_matched[i] < 1e299)) continue;
+            if (!(chi_matched[i] < 1e299) || chi_matched[i] > kMoveFitReach * r.chi2) break;
             ctx.region = tries[i].first;
             const LsqResult rs =
                 least_squares(ev, pr, tries[i].second, kRegionStartIterations, false);

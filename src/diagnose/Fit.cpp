@@ -38,7 +38,7 @@ std::string physics_key(const Physics& p, double horizon) {
   // Every field, in declaration order; a field added to Physics must be added here (the size
   // check below fails on the platform the project is built on until it is).
 #if defined(__GLIBCXX__) && defined(__x86_64__)
-  static_assert(sizeof(Physics) == 296, "Physics changed: add the new field to physics_key");
+  static_assert(sizeof(Physics) == 304, "Physics changed: add the new field to physics_key");
 #endif
   std::string k;
   auto put = [&k](const auto& v) { k.append(reinterpret_cast<const char*>(&v), sizeof v); };
@@ -54,7 +54,8 @@ std::string physics_key(const Physics& p, double horizon) {
   for (double x : p.region.hi) put(x);
   put(p.region_factor), put(p.clamp_stiffness), put(p.clamp_damping), put(p.ground);
   put(p.ground_height), put(p.ground_friction), put(p.drag_linear), put(p.drag_quadratic);
-  put(p.coulomb_accel), put(p.load_scale), put(p.newton_tolerance), put(horizon);
+  put(p.coulomb_accel), put(p.load_scale), put(p.newton_tolerance), put(p.refresh_contraction),
+      put(horizon);
   return k;
 }
 
@@ -350,7 +351,7 @@ PetscErrorCode tao_convergence(Tao tao, void* ctx) {
     return 0;
   }
   c.stalls = its > 0 && c.f_prev - f < 1e-3 * c.f_prev ? c.stalls + 1 : 0;
-  if (its >= 3 && c.chi2_best > c.prob->abandon_chi2 && f > 0.5 * c.f_prev) {
+  if (its >= kAbandonAfter && c.chi2_best > c.prob->abandon_chi2 && f > 0.5 * c.f_prev) {
     c.abandoned = true;
     PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_USER));
     return 0;

@@ -136,6 +136,87 @@ bool condense(const ElemMat& K, Condensed& c) {
   return true;
 }
 
+//! The unit-cube element of linear elasticity at (lambda, mu) scaled to voxel size h, with
+//! the bubbles condensed (incompatible element) or left out (trilinear). False when the
+//! bubble stiffness is singular.
+bool rest_element(bool bubbles, double h, double lambda, double mu, Condensed& c) {
+  const UnitStiffness& U = UnitStiffness::get();
+  const ElemMat K0e = h * (lambda * U.KL + mu * U.KM);
+  if (bubbles) return condense(K0e, c);
+  c.Kc = K0e.block<24, 24>(0, 0);
+  return true;
+}
+
+//! The free dofs: 3 per node, every node but the rigidly fixed ones (all of them when the
+//! clamp is a spring); their count in ndof.
+std::vector<int> free_dofs(const std::vector<char>& fixed, bool clamp_springs, int& ndof) {
+  std::vector<int> dof(fixed.size(), -1);
+  ndof = 0;
+  for (std::size_t n = 0; n < fixed.size(); ++n)
+    if (!fixed[n] || clamp_springs) dof[n] = ndof, ndof += 3;
+  return dof;
+}
+
+//! Stiffness at rest on the free dofs: the condensed unit element Kc of every voxel times its
+//! factor. trip receives the entries in assembly order (voxel, node pair, axes).
+SpMat assemble_stiffness(const std::vector<std::array<int, 8>>& vox_node,
+                         const std::vector<int>& dof, int ndof, const std::vector<double>& vfac,
+                         const Eigen::Matrix<double, 24, 24>& Kc,
+                         std::vector<Eigen::Triplet<double>>& trip) {
+  const std::size_t nv = vox_node.size();
+  trip.clear();
+  trip.reserve(nv * 576);
+  for (std::size_t v = 0; v < nv; ++v) {
+    for (int l = 0; l < 8; ++l) {
+      const int dl = dof[static_cast<std::size_t>(vox_node[v][l])];
+      if (dl < 0) continue;
+      for (int m = 0; m < 8; ++m) {
+        const int dm = dof[static_cast<std::size_t>(vox_node[v][m])];
+        if (dm < 0) continue;
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            trip.emplace_back(dl + a, dm + b, vfac[v] * Kc(3 * l + a, 3 * m + b));
+      }
+    }
+  }
+  SpMat K(ndof, ndof);
+  K.setFromTriplets(trip.begin(), trip.end());
+  return K;
+}
+
+//! Mass matrix on the free dofs: theta consistent (the trilinear shape functions' integral; the
+//! bubbles carry no mass) plus (1 - theta) lumped (node masses per unit density `mass`).
+SpMat assemble_mass(const std::vector<std::array<int, 8>>& vox_node, const std::vector<int>& dof,
+                    int ndof, const std::vector<double>& mass, double density, double theta,
+                    double h) {
+  double me[8][8];
+  for (int l = 0; l < 8; ++l)
+    for (int m = 0; m < 8; ++m) {
+      double w = theta * density * h * h * h;
+      for (int d = 0; d < 3; ++d) w *= ((l >> d) & 1) == ((m >> d) & 1) ? 1.0 / 3.0 : 1.0 / 6.0;
+      me[l][m] = w;
+    }
+  std::vector<Eigen::Triplet<double>> tm;
+  tm.reserve(vox_node.size() * 192 + mass.size() * 3);
+  for (std::size_t n = 0; n < mass.size(); ++n)
+    if (dof[n] >= 0)
+      for (int a = 0; a < 3; ++a)
+        tm.emplace_back(dof[n] + a, dof[n] + a, (1 - theta) * mass[n] * density);
+  for (std::size_t v = 0; v < vox_node.size(); ++v)
+    for (int l = 0; l < 8; ++l) {
+      const int dl = dof[static_cast<std::size_t>(vox_node[v][l])];
+      if (dl < 0) continue;
+      for (int m = 0; m < 8; ++m) {
+        const int dm = dof[static_cast<std::size_t>(vox_node[v][m])];
+        if (dm >= 0)
+          for (int a = 0; a < 3; ++a) tm.emplace_back(dl + a, dm + a, me[l][m]);
+      }
+    }
+  SpMat Mc(ndof, ndof);
+  Mc.setFromTriplets(tm.begin(), tm.end());
+  return Mc;
+}
+
 double mises(const double tau[9]) {
   const double p = (tau[0] + tau[4] + tau[8]) / 3.0;
   double s2 = 0;
@@ -434,37 +515,24 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   const std::size_t nn = X_.size();
   const bool clamp_springs = std::isfinite(ph.clamp_stiffness);
   // Degrees of freedom: every node but the rigidly fixed ones.
-  std::vector<int> dof(nn, -1);
   int ndof = 0;
-  for (std::size_t n = 0; n < nn; ++n)
-    if (!fixed_[n] || clamp_springs) dof[n] = ndof, ndof += 3;
+  const std::vector<int> dof = free_dofs(fixed_, clamp_springs, ndof);
   const double h = h_, dt = ph.dt;
   const double lambda0 =
       ph.youngs_modulus * ph.poisson_ratio / ((1 + ph.poisson_ratio) * (1 - 2 * ph.poisson_ratio));
   const double mu0 = ph.youngs_modulus / (2 * (1 + ph.poisson_ratio));
   const std::size_t nv = vox_node_.size();
-  std::vector<double> vfac(nv, 1.0);
-  if (ph.has_region)
-    for (std::size_t v = 0; v < nv; ++v)
-      if (ph.region.contains(voxel_center(v))) vfac[v] = ph.region_factor;
+  const std::vector<double> vfac = stiffness_factors(ph);
 
   // Linear stiffness at rest, K0, on the free dofs, the bubbles condensed per element (the
   // same for every voxel up to its stiffness factor). Per voxel: L = Kaa^-1 Kau and Kaa^-1 of
   // the matrix last factored, for the bubbles' update after each global solve.
   const bool bubbles = ph.element == Element::incompatible;
   Condensed c0;
-  {
-    const UnitStiffness& U = UnitStiffness::get();
-    const ElemMat K0e = h * (lambda0 * U.KL + mu0 * U.KM);
-    if (bubbles) {
-      if (!condense(K0e, c0)) {
-        tr.ok = false;
-        tr.failure = "the element's bubble stiffness is singular";
-        return tr;
-      }
-    } else {
-      c0.Kc = K0e.block<24, 24>(0, 0);
-    }
+  if (!rest_element(bubbles, h, lambda0, mu0, c0)) {
+    tr.ok = false;
+    tr.failure = "the element's bubble stiffness is singular";
+    return tr;
   }
   std::vector<Eigen::Matrix<double, 9, 24>> condL;
   std::vector<Eigen::Matrix<double, 9, 9>> condKinv;
@@ -474,22 +542,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     for (std::size_t v = 0; v < nv; ++v) condKinv[v] = c0.Kinv / vfac[v];
   }
   std::vector<Eigen::Triplet<double>> trip;
-  trip.reserve(nv * 576);
-  for (std::size_t v = 0; v < nv; ++v) {
-    for (int l = 0; l < 8; ++l) {
-      const int dl = dof[static_cast<std::size_t>(vox_node_[v][l])];
-      if (dl < 0) continue;
-      for (int m = 0; m < 8; ++m) {
-        const int dm = dof[static_cast<std::size_t>(vox_node_[v][m])];
-        if (dm < 0) continue;
-        for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b)
-            trip.emplace_back(dl + a, dm + b, vfac[v] * c0.Kc(3 * l + a, 3 * m + b));
-      }
-    }
-  }
-  SpMat K0(ndof, ndof);
-  K0.setFromTriplets(trip.begin(), trip.end());
+  const SpMat K0 = assemble_stiffness(vox_node_, dof, ndof, vfac, c0.Kc, trip);
   // Where each voxel's free 3x3 node blocks sit among K0's values (the tangent has K0's
   // pattern): the tangent is added there directly, in the order of the loops above, instead
   // of through triplets sorted anew on every rebuild.
@@ -510,33 +563,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   const double theta = std::clamp(ph.consistent_mass_fraction, 0.0, 1.0);
   const bool consistent = theta > 0;
   SpMat Mc;
-  if (consistent) {
-    double me[8][8];
-    for (int l = 0; l < 8; ++l)
-      for (int m = 0; m < 8; ++m) {
-        double w = theta * ph.density * h * h * h;
-        for (int d = 0; d < 3; ++d) w *= ((l >> d) & 1) == ((m >> d) & 1) ? 1.0 / 3.0 : 1.0 / 6.0;
-        me[l][m] = w;
-      }
-    std::vector<Eigen::Triplet<double>> tm;
-    tm.reserve(nv * 192 + 3 * nn);
-    for (std::size_t n = 0; n < nn; ++n)
-      if (dof[n] >= 0)
-        for (int a = 0; a < 3; ++a)
-          tm.emplace_back(dof[n] + a, dof[n] + a, (1 - theta) * mass_[n] * ph.density);
-    for (std::size_t v = 0; v < nv; ++v)
-      for (int l = 0; l < 8; ++l) {
-        const int dl = dof[static_cast<std::size_t>(vox_node_[v][l])];
-        if (dl < 0) continue;
-        for (int m = 0; m < 8; ++m) {
-          const int dm = dof[static_cast<std::size_t>(vox_node_[v][m])];
-          if (dm >= 0)
-            for (int a = 0; a < 3; ++a) tm.emplace_back(dl + a, dm + a, me[l][m]);
-        }
-      }
-    Mc.resize(ndof, ndof);
-    Mc.setFromTriplets(tm.begin(), tm.end());
-  }
+  if (consistent) Mc = assemble_mass(vox_node_, dof, ndof, mass_, ph.density, theta, h);
   for (std::size_t n = 0; n < nn; ++n) {
     if (dof[n] < 0) continue;
     const double m = mass_[n] * ph.density;
@@ -1111,7 +1138,8 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
         // A stale tangent shows as slow contraction: rebuild it at the current state. (A rule
         // weighing the iterations left at the observed rate against a rebuild's measured cost
         // was tried: it saved 20 % on plastic runs but cost 30 % on elastic ones.)
-        if ((full_newton && dmax > 0.1 * dmax_prev) || (it > 1 && dmax > 0.5 * dmax_prev))
+        if ((full_newton && dmax > 0.1 * dmax_prev) ||
+            (it > 1 && dmax > ph.refresh_contraction * dmax_prev))
           refresh = true;
         dmax_prev = dmax;
       }
@@ -1190,6 +1218,53 @@ struct RegistryLaw {
 };
 
 }  // namespace
+
+std::vector<double> VoxelModel::stiffness_factors(const Physics& ph) const {
+  std::vector<double> f(vox_node_.size(), 1.0);
+  if (ph.has_region)
+    for (std::size_t v = 0; v < f.size(); ++v)
+      if (ph.region.contains(voxel_center(v))) f[v] = ph.region_factor;
+  return f;
+}
+
+double VoxelModel::rest_frequency(const Physics& ph, const Vec3d& direction) const {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  if (std::isfinite(ph.clamp_stiffness) || ph.ground || !cfg_.colliders.empty()) return nan;
+  int ndof = 0;
+  const std::vector<int> dof = free_dofs(fixed_, false, ndof);
+  if (ndof == 0) return nan;
+  const double nu = ph.poisson_ratio, E = ph.youngs_modulus;
+  Condensed c0;
+  if (!rest_element(ph.element == Element::incompatible, h_, E * nu / ((1 + nu) * (1 - 2 * nu)),
+                    E / (2 * (1 + nu)), c0))
+    return nan;
+  std::vector<Eigen::Triplet<double>> trip;
+  const SpMat K = assemble_stiffness(vox_node_, dof, ndof, stiffness_factors(ph), c0.Kc, trip);
+  const SpMat M = assemble_mass(vox_node_, dof, ndof, mass_, ph.density,
+                                std::clamp(ph.consistent_mass_fraction, 0.0, 1.0), h_);
+  BlockLDLT solver;
+  solver.analyze(K);
+  if (!solver.factorize(K)) return nan;
+  // Inverse iteration K y = M x from a uniform displacement along `direction`; the Rayleigh
+  // quotient y'K y / y'M y = y'M x / y'M y converges at (omega_1 / omega_2)^2 per step.
+  Eigen::VectorXd x(ndof), y;
+  for (std::size_t n = 0; n < dof.size(); ++n)
+    if (dof[n] >= 0)
+      for (int a = 0; a < 3; ++a) x[dof[n] + a] = direction[static_cast<std::size_t>(a)];
+  double lambda = 0;
+  for (int it = 0; it < 100; ++it) {
+    const Eigen::VectorXd Mx = M * x;
+    solver.solve(Mx, y);
+    const double yMy = y.dot(M * y);
+    if (!(yMy > 0) || !std::isfinite(yMy)) return nan;
+    const double next = y.dot(Mx) / yMy;
+    x = y / std::sqrt(yMy);
+    const bool done = std::abs(next - lambda) <= 1e-13 * std::abs(next);
+    lambda = next;
+    if (done) break;
+  }
+  return lambda > 0 && std::isfinite(lambda) ? std::sqrt(lambda) : nan;
+}
 
 Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req) const {
   const double E = ph.youngs_modulus, nu = ph.poisson_ratio;

@@ -248,9 +248,9 @@ std::string markdown(const Diagnosis& d) {
         "noise sd; 4/3 of the h-to-h/2 difference); an effect is kept only when it explains "
         "more held-out chi-square than that ({:.4g}){}.\n\n",
         d.refinement.voxel_size, d.refinement.voxels,
-        d.refinement.upper_bound ? "not refitted," : "refitted to", d.refinement.youngs_modulus,
-        d.refinement.upper_bound ? "at most " : "at ", d.refinement.rms, d.refinement.noise_sd,
-        d.refinement.chi2,
+        d.refinement.upper_bound ? "at the h voxels' rest frequency," : "refitted to",
+        d.refinement.youngs_modulus, d.refinement.upper_bound ? "at most " : "at ",
+        d.refinement.rms, d.refinement.noise_sd, d.refinement.chi2,
         d.refinement.upper_bound ? "; this bound already decides, so E was not refitted" : "");
   else if (!d.refinement.skipped.empty())
     m << "Discretisation check not done: " << d.refinement.skipped << ".\n\n";
