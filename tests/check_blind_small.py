@@ -8,8 +8,8 @@ Usage: check_blind_small.py CASES_DIR
   or as one of the two contenders of an "ambiguous" verdict (on a uniform beam, linear air drag
   damps like mass-proportional damping); the held-out rms must drop by at least 50 %; when
   damping is named with a mass-proportional term, alpha must be within 20 % of the truth;
-  the effect was kept only after the discretisation check (h/2 rerun) measured the voxels'
-  own error, a finite amount below what the effect explains.
+  the effect was kept only after the discretisation check (2h or h/2 rerun) measured the
+  voxels' own error, a finite amount below what the effect explains.
 """
 import json
 import os
@@ -52,8 +52,8 @@ def main():
             print("FAIL damping-alpha: alpha off by more than 20 %")
             ok = False
     dc = r["discretisation_check"]
-    print("damping-alpha: discretisation check done %s, error %.3g m rms (%.3g noise sd)%s"
-          % (dc["done"], dc["error_rms"], dc["error_in_noise_sd"],
+    print("damping-alpha: discretisation check done %s on %s, error %.3g m rms (%.3g noise sd)%s"
+          % (dc["done"], dc.get("grid"), dc["error_rms"], dc["error_in_noise_sd"],
              ", an upper bound" if dc["upper_bound"] else ""))
     if not (dc["done"] and dc["error_rms"] > 0 and dc["voxels"] > 0):
         print("FAIL damping-alpha: the effect was kept without the discretisation check")

@@ -716,6 +716,30 @@ TEST(DiagnoseFit, RefinementCheckMeasuresTheErrorTheVoxelsLeaveAfterCalibration)
   EXPECT_LT(cal.chi2, 0.2 * chi2_uncal);
   EXPECT_GT(R.chi2, 0.5 * cal.chi2);
   EXPECT_LT(R.chi2, 2.0 * cal.chi2);
+
+  // With a threshold that any bound meets, the 2h runs decide alone: their bound (the whole
+  // h-to-2h difference, the two-grid convergence index) is an upper bound of the error the
+  // calibrated h model really leaves against the h/4 truth.
+  const RefinementCheck Rc = refinement_check(MPI_COMM_WORLD, cfg, obs, X, pb.physics(cal.z),
+                                              cal.pred, obs.train, m.load_events().back(), 1e300);
+  std::printf("2h check: chi2 %.4g, %.3g m rms, E at 2h %.5g, %ld runs, %zu voxels\n", Rc.chi2,
+              Rc.rms, Rc.youngs_modulus, Rc.runs, Rc.voxels);
+  ASSERT_TRUE(Rc.done) << Rc.skipped;
+  EXPECT_TRUE(Rc.coarse);
+  EXPECT_TRUE(Rc.upper_bound);
+  EXPECT_EQ(8 * Rc.voxels, m.voxels());
+  EXPECT_EQ(Rc.runs, 2);
+  EXPECT_GT(Rc.chi2, cal.chi2);
+  // With a threshold below that bound, the h/2 runs are made after the 2h pair, and they
+  // measure what they measured alone (the same runs, bit for bit).
+  const RefinementCheck Rf =
+      refinement_check(MPI_COMM_WORLD, cfg, obs, X, pb.physics(cal.z), cal.pred, obs.train,
+                       m.load_events().back(), 1e-3 * cal.chi2);
+  ASSERT_TRUE(Rf.done) << Rf.skipped;
+  EXPECT_FALSE(Rf.coarse);
+  EXPECT_EQ(Rf.voxels, 8 * m.voxels());
+  EXPECT_EQ(Rf.runs, R.runs + 2);
+  EXPECT_EQ(Rf.chi2, R.chi2);
 }
 
 TEST(DiagnoseFit, HorizonStopsRunsAndContinuationFitsAStiffRootFromOutOfPhase) {

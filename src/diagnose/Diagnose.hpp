@@ -46,7 +46,11 @@ struct RefinementCheck;
 //! count at the mean of the measured ones). Not done (with the reason) when the deck cannot be
 //! voxelized at h/2 or the run fails there. When the closer run of the first pair (E not yet
 //! refitted, so an upper bound of the error) is already below decided_below, the check stops
-//! there and reports that bound (upper_bound).
+//! there and reports that bound (upper_bound). Before any h/2 run, when decided_below > 0, the
+//! baseline is run on voxels of 2h (E at the h voxels' rest frequency): the whole h-to-2h
+//! difference bounds the h model's error (the two-grid convergence index, safety factor 3),
+//! and when that bound is below decided_below it is reported (coarse, upper_bound) and no h/2
+//! run is made.
 RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observations& obs,
                                  const std::vector<std::array<double, 3>>& X,
                                  const Physics& calibrated, const Prediction& base_pred,

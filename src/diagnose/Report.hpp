@@ -59,6 +59,9 @@ struct RefinementCheck {
   double noise_sd = 0;       //!< rms of the error in noise sd
   double rms = 0;            //!< rms of the error over position values, m
   bool upper_bound = false;  //!< E not refitted: the first pair already decided (chi2 a bound)
+  //! Decided on voxels of 2h (voxel_size): the grid convergence index of the h-to-2h
+  //! difference (safety factor 3) bounds the error, and no h/2 run was needed.
+  bool coarse = false;
   long runs = 0;
   double run_seconds = 0;
 };
