@@ -3,9 +3,11 @@
 // coupled to their neighbours by dense 3x3 blocks, plus isolated entries and an empty row pattern.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include "diagnose/BlockLDLT.hpp"
+#include "diagnose/NodeBlockProduct.hpp"
 
 namespace gen4d::diagnose {
 namespace {
@@ -122,6 +124,48 @@ TEST(BlockLDLT, FactorsASubsetOfTheAnalysedPatternAndRejectsMore) {
 TEST(BlockLDLT, RejectsAMatrixWithoutNodeBlocks) {
   BlockLDLT blk;
   EXPECT_THROW(blk.analyze(SpMat(4, 4)), std::logic_error);
+}
+
+TEST(NodeBlockProduct, IsEigensSparseProductBitForBitAndRefusesOtherPatterns) {
+  // A mass-like matrix m (x) I3 on a 6x3x3 node grid (a node with its 26 neighbours), random
+  // values of mixed magnitude, entries summed from duplicates as the model assembles them.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0, 1);
+  const int nx = 6, ny = 3, nz = 3, n = nx * ny * nz;
+  auto id = [&](int i, int j, int k) { return (k * ny + j) * nx + i; };
+  std::vector<Eigen::Triplet<double>> t;
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i)
+        for (int dk = -1; dk <= 1; ++dk)
+          for (int dj = -1; dj <= 1; ++dj)
+            for (int di = -1; di <= 1; ++di) {
+              const int i2 = i + di, j2 = j + dj, k2 = k + dk;
+              if (i2 < 0 || i2 >= nx || j2 < 0 || j2 >= ny || k2 < 0 || k2 >= nz) continue;
+              const double v = std::exp(6 * u(rng) - 3), w = 0.1 * u(rng);
+              for (int a = 0; a < 3; ++a) {
+                t.emplace_back(3 * id(i, j, k) + a, 3 * id(i2, j2, k2) + a, v);
+                t.emplace_back(3 * id(i, j, k) + a, 3 * id(i2, j2, k2) + a, w);
+              }
+            }
+  SpMat M(3 * n, 3 * n);
+  M.setFromTriplets(t.begin(), t.end());
+  const NodeBlockProduct P(M);
+  ASSERT_TRUE(P.ok());
+  Eigen::VectorXd x(3 * n), y(3 * n);
+  for (int i = 0; i < 3 * n; ++i) x[i] = std::exp(8 * u(rng) - 4) * (u(rng) < 0.5 ? -1 : 1);
+  P.apply(x, y);
+  Eigen::VectorXd ref(3 * n);
+  ref.noalias() = M * x;
+  for (int i = 0; i < 3 * n; ++i) ASSERT_EQ(y[i], ref[i]) << i;
+  // Not of the form: an entry across axes, or axes with different values.
+  SpMat across = M;
+  across.coeffRef(0, 4) = 1.0;
+  EXPECT_FALSE(NodeBlockProduct(across).ok());
+  SpMat uneven = M;
+  uneven.coeffRef(1, 1) *= 2;
+  EXPECT_FALSE(NodeBlockProduct(uneven).ok());
+  EXPECT_FALSE(NodeBlockProduct(grid_matrix(3, 2, 2, 1)).ok());  // dense 3x3 blocks
 }
 
 }  // namespace

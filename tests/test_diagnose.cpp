@@ -17,6 +17,7 @@
 #include "diagnose/Effects.hpp"
 #include "diagnose/Fit.hpp"
 #include "diagnose/Modal.hpp"
+#include "diagnose/ElementKernel.hpp"
 #include "diagnose/Model.hpp"
 #include "diagnose/Recording.hpp"
 #include "diagnose/Report.hpp"
@@ -324,6 +325,48 @@ TEST(DiagnoseModel, EveryEffectAtItsNullValueIsTheBaseline) {
         moved = std::max(moved, std::abs(t2.channel[0][k] - t0.channel[0][k]));
       EXPECT_GT(moved, 1e-7) << e->name() << ":" << v;
     }
+}
+
+TEST(DiagnoseModel, VectorKernelIsTheScalarElementLoopBitForBit) {
+  // StVK's internal forces and element tangents run with the Gauss points as vector lanes
+  // (ElementKernel.cpp); every run must give the scalar element loop's bits: the plain case,
+  // a large pluck (tangent rebuilds) in a soft region with stiffness damping, relaxation and
+  // mass damping, and the trilinear element.
+  const VoxelModel vec(deck());
+  VoxelModel scalar(deck());
+  scalar.set_vector_kernels(false);
+  const auto r = tip_request(vec, 0.4, 0.01);
+  const Physics base = vec.nominal();
+  Physics big = base;
+  big.load_scale = 8;
+  big.has_region = true;
+  big.region.lo = {0.03, 0, 0};
+  big.region.hi = {0.06, 0.02, 0.02};
+  big.region_factor = 0.5;
+  big.rayleigh_beta = 2e-3;
+  big.rayleigh_alpha = 0.5;
+  big.prony_g = 0.2;
+  big.prony_tau = 0.05;
+  Physics tri = big;
+  tri.element = Element::trilinear;
+  tri.consistent_mass_fraction = 0;
+  const std::string best = element_kernel_isa();
+  for (const std::string& isa : element_kernel_isas()) {  // each build this CPU runs
+    set_element_kernel_isa(isa);
+    for (const Physics& p : {base, big, tri}) {
+      const Trace a = vec.run(p, r), b = scalar.run(p, r);
+      ASSERT_TRUE(a.ok && b.ok) << a.failure << b.failure;
+      EXPECT_GT(a.factorizations, 1);  // the tangent kernel ran
+      EXPECT_EQ(a.newton_iterations, b.newton_iterations) << isa;
+      EXPECT_EQ(a.factorizations, b.factorizations) << isa;
+      EXPECT_EQ(a.max_mises, b.max_mises) << isa;
+      for (std::size_t c = 0; c < r.size(); ++c)
+        for (std::size_t k = 0; k < a.channel[c].size(); ++k)
+          ASSERT_EQ(a.channel[c][k], b.channel[c][k]) << isa << " channel " << c << " value " << k;
+    }
+  }
+  set_element_kernel_isa(best);
+  EXPECT_THROW(set_element_kernel_isa("sse9"), std::invalid_argument);
 }
 
 TEST(DiagnoseModel, TrapezoidalRuleKeepsAmplitudeAndDampingDecaysAtItsModalRate) {

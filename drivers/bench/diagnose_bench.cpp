@@ -14,7 +14,9 @@
 // over phases (internal forces, tangent, factorization, back-substitution, rest). Each run
 // is timed twice: with the model's element (incompatible modes, half-consistent mass) and,
 // as the baseline in the same process, with the plain trilinear element and lumped masses
-// ("trilinear"), with the cost ratio of the two.
+// ("trilinear"), with the cost ratio of the two. The StVK elastic runs are timed a third
+// time in the scalar element loop ("scalar_element_loop"), the baseline of the vector
+// kernel, with whether the two runs agree bit for bit.
 // --voxel-size 0.005 times the model of diagnose's discretisation check (h/2: 8x the voxels),
 // --newton-tolerance another Newton stop (diagnose's check runs its h/2 model at 1e-4),
 // --refresh-contraction another rule for rebuilding the lagged tangent (a correction that
@@ -22,10 +24,12 @@
 // --case one of the runs alone, --poisson another Poisson ratio (a calibration that absorbs a
 // soft region bends it to its bound, 0.45).
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <string>
 
 #include "core/Deck.hpp"
+#include "diagnose/ElementKernel.hpp"
 #include "diagnose/Model.hpp"
 #include "validation/DriverCommon.hpp"
 
@@ -97,7 +101,7 @@ int main(int argc, char** argv) {
   using namespace gen4d;
   int repeat = 3;
   double voxel_size = 0.01, poisson = 0.3, newton_tolerance = 0, refresh = 0;
-  std::string only;
+  std::string only, isa;
   return driver::main_with(
       argc, argv, "Speed of the gen4d diagnose forward model (JSON on stdout)",
       [&](CLI::App& app) {
@@ -112,6 +116,8 @@ int main(int argc, char** argv) {
         app.add_option("--refresh-contraction", refresh,
                        "tangent rebuilt when a correction shrinks by less (0: the default)")
             ->check(CLI::Range(0.0, 1.0));
+        app.add_option("--isa", isa, "the element kernel's instruction set (default: the best)")
+            ->check(CLI::IsMember(diagnose::element_kernel_isas()));
         app.add_option("--case", only, "only this run")
             ->check(CLI::IsMember({"baseline", "nominal", "damping", "corotated", "plastic"}));
       },
@@ -119,6 +125,7 @@ int main(int argc, char** argv) {
         int rank = 0;
         MPI_Comm_rank(MPI_COMM_WORLD, &rank);
         if (rank != 0) return 0;  // serial: one run is one process's work
+        if (!isa.empty()) diagnose::set_element_kernel_isa(isa);
         std::string deck = kDeck;
         deck.replace(deck.find("{voxel_size}"), 12, fmt::format("{}", voxel_size));
         deck.replace(deck.find("{poisson}"), 9, fmt::format("{}", poisson));
@@ -155,12 +162,26 @@ int main(int argc, char** argv) {
         constexpr int kRuns = 5;
         const char* names[kRuns] = {"baseline", "nominal", "damping", "corotated", "plastic"};
         const diagnose::Physics phys[kRuns] = {base, nominal, damped, corotated, plastic};
-        std::string runs, old_runs, ratios;
+        diagnose::VoxelModel scalar_model(cfg);
+        scalar_model.set_vector_kernels(false);
+        std::string runs, old_runs, ratios, scalar_runs;
         double wall[kRuns] = {};
         for (int k = 0; k < kRuns; ++k) {
           if (!only.empty() && only != names[k]) continue;
           const Result r = time_run(names[k], model, phys[k], req, repeat);
           const Result o = time_run(names[k], model, trilinear(phys[k]), req, repeat);
+          if (phys[k].law == "stvk" && !std::isfinite(phys[k].yield_stress)) {
+            // The same run in the scalar element loop: the vector kernel's baseline, and
+            // whether the two agree bit for bit.
+            const Result sr = time_run(names[k], scalar_model, phys[k], req, repeat);
+            bool same = sr.trace.channel == r.trace.channel;
+            scalar_runs += fmt::format(
+                "{}    \"{}\": {{\"wall_s\": {:.4f}, \"internal_s\": {:.4f}, "
+                "\"vector_internal_speedup\": {:.2f}, \"vector_run_speedup\": {:.3f}, "
+                "\"bit_identical\": {}}}",
+                scalar_runs.empty() ? "" : ",\n", names[k], sr.wall, sr.trace.time_internal,
+                sr.trace.time_internal / r.trace.time_internal, sr.wall / r.wall, same);
+          }
           wall[k] = r.wall;
           const char* sep = runs.empty() ? "" : ",\n";
           runs += sep + json(names[k], r);
@@ -168,11 +189,15 @@ int main(int argc, char** argv) {
           ratios += fmt::format("{}\"{}\": {:.3f}", ratios.empty() ? "" : ", ", names[k],
                                 r.wall / o.wall);
         }
-        std::printf("{\n  \"model\": {\"voxels\": %zu, \"nodes\": %zu, \"repeat\": %d},\n",
-                    model.voxels(), model.nodes(), repeat);
+        std::printf(
+            "{\n  \"model\": {\"voxels\": %zu, \"nodes\": %zu, \"repeat\": %d, "
+            "\"element_kernel\": \"%s\"},\n",
+            model.voxels(), model.nodes(), repeat, diagnose::element_kernel_isa().c_str());
         std::printf("  \"runs\": {\n%s\n  },\n", runs.c_str());
         std::printf("  \"trilinear\": {\n%s\n  },\n", old_runs.c_str());
         std::printf("  \"cost_over_trilinear\": {%s},\n", ratios.c_str());
+        if (!scalar_runs.empty())
+          std::printf("  \"scalar_element_loop\": {\n%s\n  },\n", scalar_runs.c_str());
         if (wall[0] > 0 && wall[1] > 0)
           std::printf("  \"nominal_over_baseline\": %.3f,\n", wall[1] / wall[0]);
         std::printf("  \"voxel_size\": %g,\n  \"poisson_ratio\": %g\n}\n", voxel_size, poisson);

@@ -1,7 +1,9 @@
 #include "diagnose/Model.hpp"
 
 #include "diagnose/BlockLDLT.hpp"
+#include "diagnose/ElementKernel.hpp"
 #include "diagnose/HenckyJ2.hpp"
+#include "diagnose/NodeBlockProduct.hpp"
 
 #include <Eigen/Dense>
 #include <Eigen/IterativeLinearSolvers>
@@ -28,11 +30,11 @@ namespace gen4d::diagnose {
 
 namespace {
 
-//! Shape functions of the element: the 8 trilinear corners, then the 3 incompatible (bubble)
-//! modes 4 xi_i (1 - xi_i) of Wilson and Taylor, one per axis, whose amplitudes are condensed
-//! per element. With them the voxel bends like the beam it is (the trilinear hexahedron with
-//! full integration locks in shear: it is stiffer in bending, the more so in higher modes).
-constexpr int kShapes = 11;
+// Shape functions of the element (kShapes, ElementKernel.hpp): the 8 trilinear corners, then
+// the 3 incompatible (bubble) modes 4 xi_i (1 - xi_i) of Wilson and Taylor, one per axis,
+// whose amplitudes are condensed per element. With them the voxel bends like the beam it is
+// (the trilinear hexahedron with full integration locks in shear: it is stiffer in bending,
+// the more so in higher modes).
 
 //! F = sum_l x_l (x) grad N_l at one Gauss point (g: the gradients there, 1/m; the bubbles'
 //! "positions" x_8..10 are their amplitudes).
@@ -134,6 +136,35 @@ bool condense(const ElemMat& K, Condensed& c) {
   c.L = c.Kinv * K.block<9, 24>(24, 0);
   c.Kc = K.block<24, 24>(0, 0) - K.block<24, 9>(0, 24) * c.L;
   return true;
+}
+
+// The condensed bubbles' small products, per voxel and Newton iteration (three per voxel: a
+// third of a run's time outside the element loops went to Eigen's general matrix-vector
+// kernels' setup). Each sums its terms in the order of those kernels' SSE2 build (two
+// interleaved partial sums for the transposed product, one running sum per row otherwise),
+// so the default build's results are theirs bit for bit.
+//! out = L^T r (L 9x24, column-major).
+void bubble_lt_times(const Eigen::Matrix<double, 9, 24>& L, const double* r, double* out) {
+  for (int i = 0; i < 24; ++i) {
+    const double* row = L.data() + 9 * i;  // column i of L
+    double c0 = 0, c1 = 0;
+    for (int j = 0; j < 8; j += 2) {
+      c0 = row[j] * r[j] + c0;
+      c1 = row[j + 1] * r[j + 1] + c1;
+    }
+    double cc = c0 + c1;
+    cc += row[8] * r[8];
+    out[i] = 0.0 + cc;
+  }
+}
+//! out = s A x (A: rows x cols, column-major).
+template <int Rows, int Cols>
+void bubble_times(const Eigen::Matrix<double, Rows, Cols>& A, const double* x, double s,
+                  double* out) {
+  double c[Rows] = {};
+  for (int j = 0; j < Cols; ++j)
+    for (int i = 0; i < Rows; ++i) c[i] = A.data()[i + Rows * j] * x[j] + c[i];
+  for (int i = 0; i < Rows; ++i) out[i] = c[i] * s + 0.0;
 }
 
 //! The unit-cube element of linear elasticity at (lambda, mu) scaled to voxel size h, with
@@ -563,7 +594,11 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   const double theta = std::clamp(ph.consistent_mass_fraction, 0.0, 1.0);
   const bool consistent = theta > 0;
   SpMat Mc;
-  if (consistent) Mc = assemble_mass(vox_node_, dof, ndof, mass_, ph.density, theta, h);
+  NodeBlockProduct Mc_nodes;  // Mc's product, one index per node pair (the same bits)
+  if (consistent) {
+    Mc = assemble_mass(vox_node_, dof, ndof, mass_, ph.density, theta, h);
+    Mc_nodes = NodeBlockProduct(Mc);
+  }
   for (std::size_t n = 0; n < nn; ++n) {
     if (dof[n] < 0) continue;
     const double m = mass_[n] * ph.density;
@@ -714,10 +749,53 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   const bool kelvin_voigt = ph.rayleigh_beta != 0;
   // with_mises: also the step's largest von Mises stress (a diagnostic that scales the yield
   // probes: taken once per step, at the predictor, not on every Newton iterate).
+  // The StVK law's elastic passes run in the vector kernel (ElementKernel.hpp: the same
+  // arithmetic, the Gauss points as lanes).
+  bool vector_pass = false;
+  StvkForcePass pass;
+  StvkTangent vtangent;
+  alignas(64) double Gl[kShapes][3][8];
+  if constexpr (std::is_same_v<Law, materials::StVK>) {
+    vector_pass = vector_kernels_ && !plastic;
+    for (int q = 0; q < 8; ++q)
+      for (int l = 0; l < kShapes; ++l)
+        for (int c = 0; c < 3; ++c) Gl[l][c][q] = G[q][l][c];
+    pass.voxels = nv;
+    pass.vox_node = vox_node_.data();
+    pass.X = X_.data();
+    pass.vfac = vfac.data();
+    pass.G = Gl;
+    pass.weight = h * h * h / 8.0;
+    pass.mu = law.mu;
+    pass.lambda = law.lambda;
+    pass.kv_beta = ph.rayleigh_beta;
+    pass.kv_mu = mu0;
+    pass.kv_lambda = lambda0;
+    pass.prony_rate = rv;
+    pass.prony_rate_g = rv * ph.prony_g;
+    vtangent.G = Gl;
+    vtangent.dN = S.dN;
+    vtangent.mu = law.mu;
+    vtangent.lambda = law.lambda;
+    vtangent.shapes = bubbles ? kShapes : 8;
+  }
   auto internal = [&](bool with_mises) -> bool {
     PhaseTimer timer(tr.time_internal);
     std::fill(fint.begin(), fint.end(), 0.0);
     if (with_mises) step_max_mises = 0;
+    if (vector_pass) {
+      pass.u = u1.data();
+      pass.v = v1.data();
+      pass.alpha = bubbles ? al1.data() : nullptr;
+      pass.alpha_rate = bubbles ? ald1.data() : nullptr;
+      pass.q = visco ? qv.data() : nullptr;
+      pass.q_new = visco ? qv_new.data() : nullptr;
+      pass.max_mises = with_mises ? &step_max_mises : nullptr;
+      pass.fint = fint.data();
+      pass.ral = ral.data();
+      stvk_force_pass(pass);
+      return true;
+    }
     for (std::size_t vx = 0; vx < nv; ++vx) {
       double xe[kShapes][3] = {}, ve[kShapes][3] = {}, fe[kShapes][3] = {};
       for (int l = 0; l < 8; ++l) {
@@ -792,6 +870,70 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     return true;
   };
 
+  // The element tangent of voxel vx at positions xe in the scalar element loop.
+  auto element_tangent = [&](std::size_t vx, const double(&xe)[kShapes][3], ElemMat& Ke) {
+    const double vscale = visco ? 1.0 - ph.prony_g * rv / (1.0 + rv) : 1.0;
+    const int nshape = bubbles ? kShapes : 8;
+    Ke = ElemMat::Zero();
+    for (int q = 0; q < 8; ++q) {
+      double F[9], D[9][9];
+      grad_at(G[q], xe, F);
+      const std::size_t g = 8 * vx + static_cast<std::size_t>(q);
+      if (plastic) {
+        // The consistent tangent of the return map by forward differences (10 return maps,
+        // not 18: the tangent only steers Newton, whose stopping test is on the residual's
+        // correction, so its O(eps) error costs nothing in accuracy).
+        const double eps = 1e-7;
+        double P0[9] = {}, tau[9], st;
+        plastic_stress(g, F, P0, tau, &st, nullptr);
+        for (int j = 0; j < 9; ++j) {
+          double Fp[9], Pp[9] = {};
+          std::copy(F, F + 9, Fp);
+          Fp[j] += eps;
+          plastic_stress(g, Fp, Pp, tau, &st, nullptr);
+          for (int i = 0; i < 9; ++i) D[i][j] = (Pp[i] - P0[i]) / eps;
+        }
+      } else if constexpr (HasPk1Jacobian<Law>::value) {
+        materials::Mat3 Fm;
+        std::copy(F, F + 9, Fm.a);
+        law.pk1_jacobian(Fm, D);  // analytic: one SVD instead of 18 (corotated)
+      } else {
+        const double eps = 1e-6;
+        for (int j = 0; j < 9; ++j) {
+          double Fp[9], Fm[9], Pp[9] = {}, Pm[9] = {};
+          std::copy(F, F + 9, Fp);
+          std::copy(F, F + 9, Fm);
+          Fp[j] += eps;
+          Fm[j] -= eps;
+          elastic_stress(Fp, Pp);
+          elastic_stress(Fm, Pm);
+          for (int i = 0; i < 9; ++i) D[i][j] = (Pp[i] - Pm[i]) / (2 * eps);
+        }
+      }
+      const double w = h / 8.0 * vfac[vx] * vscale;  // h^3 / 8 * (1/h)^2
+      // T[l][a][b][e] = sum_c dN_l,c Dsym[ac][be]; Ke[la][mb] += w sum_e T dN_m,e
+      double T[kShapes][3][3][3];
+      for (int l = 0; l < nshape; ++l)
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            for (int e = 0; e < 3; ++e) {
+              double t = 0;
+              for (int c = 0; c < 3; ++c)
+                t += S.dN[q][l][c] * 0.5 * (D[3 * a + c][3 * b + e] + D[3 * b + e][3 * a + c]);
+              T[l][a][b][e] = w * t;
+            }
+      // Ke is symmetric (D symmetrised): its upper triangle only, mirrored below.
+      for (int l = 0; l < nshape; ++l)
+        for (int a = 0; a < 3; ++a)
+          for (int m = l; m < nshape; ++m)
+            for (int b = m == l ? a : 0; b < 3; ++b)
+              Ke(3 * l + a, 3 * m + b) += T[l][a][b][0] * S.dN[q][m][0] +
+                                          T[l][a][b][1] * S.dN[q][m][1] +
+                                          T[l][a][b][2] * S.dN[q][m][2];
+    }
+    for (int j = 0; j < 3 * nshape; ++j)
+      for (int i = j + 1; i < 3 * nshape; ++i) Ke(i, j) = Ke(j, i);
+  };
   // Tangent stiffness at u1: dP/dF of the law (with plasticity: of the return map from the
   // step's start) by central differences per Gauss point (symmetrised), scaled like the stress
   // (region factor, relaxed viscous part).
@@ -801,7 +943,6 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     std::fill(kval, kval + Kt.nonZeros(), 0.0);
     std::size_t slot = 0;
     const double vscale = visco ? 1.0 - ph.prony_g * rv / (1.0 + rv) : 1.0;
-    const int nshape = bubbles ? kShapes : 8;
     Condensed ce;
     for (std::size_t vx = 0; vx < nv; ++vx) {
       double xe[kShapes][3] = {};
@@ -812,65 +953,12 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
       if (bubbles)
         for (int i = 0; i < 9; ++i)
           xe[8 + i / 3][i % 3] = al1[9 * vx + static_cast<std::size_t>(i)];
-      ElemMat Ke = ElemMat::Zero();
-      for (int q = 0; q < 8; ++q) {
-        double F[9], D[9][9];
-        grad_at(G[q], xe, F);
-        const std::size_t g = 8 * vx + static_cast<std::size_t>(q);
-        if (plastic) {
-          // The consistent tangent of the return map by forward differences (10 return maps,
-          // not 18: the tangent only steers Newton, whose stopping test is on the residual's
-          // correction, so its O(eps) error costs nothing in accuracy).
-          const double eps = 1e-7;
-          double P0[9] = {}, tau[9], st;
-          plastic_stress(g, F, P0, tau, &st, nullptr);
-          for (int j = 0; j < 9; ++j) {
-            double Fp[9], Pp[9] = {};
-            std::copy(F, F + 9, Fp);
-            Fp[j] += eps;
-            plastic_stress(g, Fp, Pp, tau, &st, nullptr);
-            for (int i = 0; i < 9; ++i) D[i][j] = (Pp[i] - P0[i]) / eps;
-          }
-        } else if constexpr (HasPk1Jacobian<Law>::value) {
-          materials::Mat3 Fm;
-          std::copy(F, F + 9, Fm.a);
-          law.pk1_jacobian(Fm, D);  // analytic: one SVD instead of 18 (corotated)
-        } else {
-          const double eps = 1e-6;
-          for (int j = 0; j < 9; ++j) {
-            double Fp[9], Fm[9], Pp[9] = {}, Pm[9] = {};
-            std::copy(F, F + 9, Fp);
-            std::copy(F, F + 9, Fm);
-            Fp[j] += eps;
-            Fm[j] -= eps;
-            elastic_stress(Fp, Pp);
-            elastic_stress(Fm, Pm);
-            for (int i = 0; i < 9; ++i) D[i][j] = (Pp[i] - Pm[i]) / (2 * eps);
-          }
-        }
-        const double w = h / 8.0 * vfac[vx] * vscale;  // h^3 / 8 * (1/h)^2
-        // T[l][a][b][e] = sum_c dN_l,c Dsym[ac][be]; Ke[la][mb] += w sum_e T dN_m,e
-        double T[kShapes][3][3][3];
-        for (int l = 0; l < nshape; ++l)
-          for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b)
-              for (int e = 0; e < 3; ++e) {
-                double t = 0;
-                for (int c = 0; c < 3; ++c)
-                  t += S.dN[q][l][c] * 0.5 * (D[3 * a + c][3 * b + e] + D[3 * b + e][3 * a + c]);
-                T[l][a][b][e] = w * t;
-              }
-        // Ke is symmetric (D symmetrised): its upper triangle only, mirrored below.
-        for (int l = 0; l < nshape; ++l)
-          for (int a = 0; a < 3; ++a)
-            for (int m = l; m < nshape; ++m)
-              for (int b = m == l ? a : 0; b < 3; ++b)
-                Ke(3 * l + a, 3 * m + b) += T[l][a][b][0] * S.dN[q][m][0] +
-                                            T[l][a][b][1] * S.dN[q][m][1] +
-                                            T[l][a][b][2] * S.dN[q][m][2];
+      ElemMat Ke;
+      if (vector_pass) {
+        stvk_element_tangent(vtangent, xe, h / 8.0 * vfac[vx] * vscale, Ke.data());
+      } else {
+        element_tangent(vx, xe, Ke);
       }
-      for (int j = 0; j < 3 * nshape; ++j)
-        for (int i = j + 1; i < 3 * nshape; ++i) Ke(i, j) = Ke(j, i);
       if (bubbles) {
         if (!condense(Ke, ce)) return false;
         condL[vx] = ce.L;
@@ -974,6 +1062,8 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   }
   record(0);
   std::vector<double> a_prev = a;
+  std::vector<double> fext(3 * nn, 0.0);
+  const bool quadratic_drag = ph.drag_quadratic != 0, dry_friction = ph.coulomb_accel != 0;
   const double tol_du = ph.newton_tolerance * h;
   for (long s = 1; s <= nsteps; ++s) {
     const double t1 = dt * static_cast<double>(s);
@@ -993,10 +1083,16 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
         }
         Eigen::Map<Eigen::Matrix<double, 9, 1>> a1v(&al1[9 * vx]);
         a1v = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(&al[9 * vx]);
-        if (bubbles_follow) a1v -= condL[vx] * due;
+        if (bubbles_follow) {
+          double Ld[9];
+          bubble_times(condL[vx], due.data(), 1.0, Ld);
+          for (int i = 0; i < 9; ++i) a1v[i] -= Ld[i];
+        }
       }
     };
     predict(true);
+    for (std::size_t n = 0; n < nn; ++n)  // the step's applied loads
+      if (dof[n] >= 0) external(t1, n, &fext[3 * n]);
     // Newton with a lagged tangent; if it diverges (with plastic unloading, a stale bubble
     // stiffness can over-correct the bubbles) or stalls, the step starts again from the
     // predictor with the tangent rebuilt at every iterate.
@@ -1037,22 +1133,25 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
           if (dof[n] >= 0)
             for (int d = 0; d < 3; ++d)
               wa[dof[n] + d] = a1[3 * n + d] + ph.rayleigh_alpha * v1[3 * n + d];
-        if (consistent)
+        if (consistent && Mc_nodes.ok())
+          Mc_nodes.apply(wa, Mwa);
+        else if (consistent)
           Mwa.noalias() = Mc * wa;
         else
           Mwa = M.cwiseProduct(wa);
         for (std::size_t n = 0; n < nn; ++n) {
           if (dof[n] < 0) continue;
-          double f[3];
-          external(t1, n, f);
+          const double* f = &fext[3 * n];
           const int i0 = dof[n];
           const double m = mass_[n] * ph.density;
           const double* vn = &v1[3 * n];
-          const double speed = std::sqrt(vn[0] * vn[0] + vn[1] * vn[1] + vn[2] * vn[2]);
+          const double speed =
+              quadratic_drag ? std::sqrt(vn[0] * vn[0] + vn[1] * vn[1] + vn[2] * vn[2]) : 0.0;
           // Dry friction acts against the velocity at the start of the step (explicit in its
           // direction, capped so it can at most stop the node): stable at any dt.
           const double* v0 = &v[3 * n];
-          const double speed0 = std::sqrt(v0[0] * v0[0] + v0[1] * v0[1] + v0[2] * v0[2]);
+          const double speed0 =
+              dry_friction ? std::sqrt(v0[0] * v0[0] + v0[1] * v0[1] + v0[2] * v0[2]) : 0.0;
           for (int d = 0; d < 3; ++d) {
             double r = Mwa[i0 + d] + Cd[i0 + d] * vn[d] + fint[3 * n + d] - f[d] +
                        Ks[i0 + d] * u1[3 * n + d];
@@ -1096,8 +1195,8 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
           }
         };
         for (std::size_t vx = 0; vx < al.size() / 9; ++vx) {
-          const Eigen::Map<const Eigen::Matrix<double, 9, 1>> ra(&ral[9 * vx]);
-          const Eigen::Matrix<double, 24, 1> fr = condL[vx].transpose() * ra;
+          double fr[24];
+          bubble_lt_times(condL[vx], &ral[9 * vx], fr);
           for (int l = 0; l < 8; ++l) {
             const int dl = dof[static_cast<std::size_t>(vox_node_[vx][l])];
             if (dl >= 0)
@@ -1121,11 +1220,13 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
         for (std::size_t vx = 0; vx < al.size() / 9; ++vx) {
           Eigen::Matrix<double, 24, 1> due;
           element_du(vx, due);
-          const Eigen::Map<const Eigen::Matrix<double, 9, 1>> ra(&ral[9 * vx]);
-          const Eigen::Matrix<double, 9, 1> da = condL[vx] * due - kscale * (condKinv[vx] * ra);
+          double Ld[9], Kr[9];
+          bubble_times(condL[vx], due.data(), 1.0, Ld);
+          bubble_times(condKinv[vx], &ral[9 * vx], kscale, Kr);
           for (int i = 0; i < 9; ++i) {
-            al1[9 * vx + static_cast<std::size_t>(i)] += da[i];
-            dmax = std::max(dmax, std::abs(da[i]));
+            const double da = Ld[i] - Kr[i];
+            al1[9 * vx + static_cast<std::size_t>(i)] += da;
+            dmax = std::max(dmax, std::abs(da));
           }
         }
         ++tr.newton_iterations;

@@ -135,6 +135,9 @@ class VoxelModel {
   //! does not capture the model this way (a spring clamp, contact planes) or the stiffness is
   //! singular (a body held nowhere).
   double rest_frequency(const Physics& phys, const Vec3d& direction) const;
+  //! Whether StVK's elastic passes run in the vector kernel (the default) or in the scalar
+  //! element loop; both give the same bits (tests and bench_diagnose compare them).
+  void set_vector_kernels(bool on) { vector_kernels_ = on; }
 
  private:
   //! Each voxel's stiffness factor (the region's where its centre lies in it, else 1).
@@ -144,6 +147,7 @@ class VoxelModel {
   Trace run_law(const Physics& phys, const std::vector<ChannelRequest>& req, const Law& law) const;
 
   Config cfg_;
+  bool vector_kernels_ = true;
   double h_ = 0;
   Vec3d origin_{};
   std::array<long, 3> cells_{};

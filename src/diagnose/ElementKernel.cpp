@@ -1,0 +1,313 @@
+// Built with -ffp-contract=off (src/CMakeLists.txt): a fused multiply-add would round once
+// where the scalar loop rounds twice, and the builds would differ in their last bits.
+#include "diagnose/ElementKernel.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <stdexcept>
+#include <string>
+
+// The bodies are inlined into one entry point per instruction set (GCC and Clang on x86-64);
+// elsewhere the baseline build is the only one.
+#if defined(__x86_64__) && defined(__GNUC__)
+#define GEN4D_X86_ISAS 1
+#define GEN4D_ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define GEN4D_X86_ISAS 0
+#define GEN4D_ALWAYS_INLINE inline
+#endif
+
+namespace gen4d::diagnose {
+
+namespace {
+
+constexpr int kLanes = 8;  // Gauss points per voxel
+using Lanes = double[kLanes];
+
+// F[3a + c][q] = sum_l x[l][a] G[l][c][q], summed over l in order.
+GEN4D_ALWAYS_INLINE void lanes_grad(const double (*G)[3][kLanes], const double x[kShapes][3],
+                                    Lanes F[9]) {
+  for (int i = 0; i < 9; ++i)
+    for (int q = 0; q < kLanes; ++q) F[i][q] = 0;
+  for (int l = 0; l < kShapes; ++l)
+    for (int a = 0; a < 3; ++a) {
+      const double xa = x[l][a];
+      for (int c = 0; c < 3; ++c)
+        for (int q = 0; q < kLanes; ++q) F[3 * a + c][q] += xa * G[l][c][q];
+    }
+}
+
+// StVK: E = (F^T F - I) / 2, S = 2 mu E + lambda tr(E) I, P = F S (m2 = 2 mu), in the order
+// of materials::StVK::pk1.
+GEN4D_ALWAYS_INLINE void lanes_stvk(const Lanes F[9], double m2, double lambda, Lanes P[9]) {
+  alignas(64) Lanes E[9], tr;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      const double id = r == c ? 1.0 : 0.0;
+      for (int q = 0; q < kLanes; ++q)
+        E[3 * r + c][q] =
+            0.5 * (F[r][q] * F[c][q] + F[3 + r][q] * F[3 + c][q] + F[6 + r][q] * F[6 + c][q] - id);
+    }
+  for (int q = 0; q < kLanes; ++q) tr[q] = lambda * (E[0][q] + E[4][q] + E[8][q]);
+  for (int i = 0; i < 9; ++i) {
+    const double id = i % 4 == 0 ? 1.0 : 0.0;
+    for (int q = 0; q < kLanes; ++q) E[i][q] = m2 * E[i][q] + tr[q] * id;  // now S
+  }
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      for (int q = 0; q < kLanes; ++q)
+        P[3 * r + c][q] =
+            F[3 * r][q] * E[c][q] + F[3 * r + 1][q] * E[3 + c][q] + F[3 * r + 2][q] * E[6 + c][q];
+}
+
+GEN4D_ALWAYS_INLINE void tangent_body(const StvkTangent& t, const double x[kShapes][3], double w,
+                                      double* Ke) {
+  constexpr int n = 3 * kShapes;
+  const double m2 = 2.0 * t.mu;
+  alignas(64) Lanes F[9], D[9][9];
+  lanes_grad(t.G, x, F);
+  // dP/dF by central differences, all Gauss points at once.
+  const double eps = t.eps;
+  for (int j = 0; j < 9; ++j) {
+    alignas(64) Lanes Fp[9], Fm[9], Pp[9], Pm[9];
+    for (int i = 0; i < 9; ++i)
+      for (int q = 0; q < kLanes; ++q) Fp[i][q] = Fm[i][q] = F[i][q];
+    for (int q = 0; q < kLanes; ++q) Fp[j][q] += eps, Fm[j][q] -= eps;
+    lanes_stvk(Fp, m2, t.lambda, Pp);
+    lanes_stvk(Fm, m2, t.lambda, Pm);
+    for (int i = 0; i < 9; ++i)
+      for (int q = 0; q < kLanes; ++q) D[i][j][q] = (Pp[i][q] - Pm[i][q]) / (2 * eps);
+  }
+  // Ke(3 l + a, 3 m + b) = sum_q sum_e T_q[l][a][b][e] dN_q[m][e], with
+  // T_q[l][a][b][e] = w sum_c dN_q[l][c] Dsym_q[ac][be] (Dsym times 2: the scalar loop's
+  // (dN 0.5) (D + D^T)). Vectors run over the shapes (l for T, m for Ke, padded to kPad);
+  // every entry gets the scalar loop's terms in its order, so the upper triangle is the
+  // scalar loop's bit for bit. The lower one is computed too and then overwritten by the
+  // upper, as the scalar loop mirrors it.
+  constexpr int kPad = 12;
+  const int nshape = t.shapes;
+  alignas(64) double K[n][3][kPad] = {};  // row 3 l + a, then b, m
+  for (int q = 0; q < kLanes; ++q) {
+    alignas(64) double dN[3][kPad] = {}, dNh[3][kPad] = {};
+    for (int l = 0; l < nshape; ++l)
+      for (int c = 0; c < 3; ++c) dN[c][l] = t.dN[q][l][c], dNh[c][l] = t.dN[q][l][c] * 0.5;
+    alignas(64) double T[3][3][3][kPad];  // a, b, e, l
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        for (int e = 0; e < 3; ++e) {
+          double X[3];
+          for (int c = 0; c < 3; ++c)
+            X[c] = D[3 * a + c][3 * b + e][q] + D[3 * b + e][3 * a + c][q];
+          for (int l = 0; l < kPad; ++l) {
+            double s = 0;
+            for (int c = 0; c < 3; ++c) s += dNh[c][l] * X[c];
+            T[a][b][e][l] = w * s;
+          }
+        }
+    for (int l = 0; l < nshape; ++l)
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) {
+          const double t0 = T[a][b][0][l], t1 = T[a][b][1][l], t2 = T[a][b][2][l];
+          double* row = K[3 * l + a][b];
+          for (int m = 0; m < kPad; ++m) row[m] += t0 * dN[0][m] + t1 * dN[1][m] + t2 * dN[2][m];
+        }
+  }
+  for (int i = 0; i < n * n; ++i) Ke[i] = 0;
+  const int nd = 3 * nshape;
+  for (int r = 0; r < nd; ++r)
+    for (int m = 0; m < nshape; ++m)
+      for (int b = 0; b < 3; ++b) Ke[r + n * (3 * m + b)] = K[r][b][m];
+  for (int j = 0; j < nd; ++j)
+    for (int i = j + 1; i < nd; ++i) Ke[i + n * j] = Ke[j + n * i];
+}
+
+GEN4D_ALWAYS_INLINE void force_pass_body(const StvkForcePass& p) {
+  const bool bubbles = p.alpha != nullptr;
+  const bool kv = p.kv_beta != 0;
+  const double m2 = 2.0 * p.mu;
+  const double kv_m2 = p.kv_beta * 2.0 * p.kv_mu, kv_l = p.kv_beta * p.kv_lambda;
+  const double prony_den = 1.0 + p.prony_rate;
+  const auto& G = p.G;
+  double max_mises = p.max_mises ? *p.max_mises : 0.0;
+  for (std::size_t vx = 0; vx < p.voxels; ++vx) {
+    double xe[kShapes][3] = {}, ve[kShapes][3] = {};
+    for (int l = 0; l < 8; ++l) {
+      const std::size_t n = static_cast<std::size_t>(p.vox_node[vx][l]);
+      for (int d = 0; d < 3; ++d) xe[l][d] = p.X[n][d] + p.u[3 * n + d];
+      if (kv)
+        for (int d = 0; d < 3; ++d) ve[l][d] = p.v[3 * n + d];
+    }
+    if (bubbles)
+      for (int i = 0; i < 9; ++i) {
+        xe[8 + i / 3][i % 3] = p.alpha[9 * vx + static_cast<std::size_t>(i)];
+        if (kv) ve[8 + i / 3][i % 3] = p.alpha_rate[9 * vx + static_cast<std::size_t>(i)];
+      }
+    alignas(64) Lanes F[9], P[9], tr;
+    lanes_grad(G, xe, F);
+    lanes_stvk(F, m2, p.lambda, P);
+    if (p.q) {
+      // Relaxing part: dq/dt = (g P_el - q) / tau (backward Euler); stress P_el - q.
+      for (int q = 0; q < kLanes; ++q) {
+        const std::size_t g = 9 * (8 * vx + static_cast<std::size_t>(q));
+        for (int i = 0; i < 9; ++i) {
+          p.q_new[g + i] = (p.q[g + i] + p.prony_rate_g * P[i][q]) / prony_den;
+          P[i][q] -= p.q_new[g + i];
+        }
+      }
+    }
+    if (kv) {
+      // Viscous stress beta (2 mu Ed + lambda tr(Ed) I) of the Green strain rate
+      // Ed = sym(F^T dF/dt), carried by F.
+      alignas(64) Lanes Fd[9], Ed[9];
+      lanes_grad(G, ve, Fd);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          for (int q = 0; q < kLanes; ++q) {
+            double e = 0;
+            for (int k = 0; k < 3; ++k)
+              e += F[3 * k + i][q] * Fd[3 * k + j][q] + Fd[3 * k + i][q] * F[3 * k + j][q];
+            Ed[3 * i + j][q] = 0.5 * e;
+          }
+      for (int q = 0; q < kLanes; ++q) tr[q] = Ed[0][q] + Ed[4][q] + Ed[8][q];
+      for (int i = 0; i < 9; ++i)
+        for (int q = 0; q < kLanes; ++q) Ed[i][q] = kv_m2 * Ed[i][q];  // now Sv
+      for (int i = 0; i < 3; ++i)
+        for (int q = 0; q < kLanes; ++q) Ed[4 * i][q] += kv_l * tr[q];
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          for (int q = 0; q < kLanes; ++q)
+            P[3 * i + j][q] += F[3 * i][q] * Ed[j][q] + F[3 * i + 1][q] * Ed[3 + j][q] +
+                               F[3 * i + 2][q] * Ed[6 + j][q];
+    }
+    const double f = p.vfac[vx];
+    for (int i = 0; i < 9; ++i)
+      for (int q = 0; q < kLanes; ++q) P[i][q] *= f;
+    if (p.max_mises) {
+      for (int q = 0; q < kLanes; ++q) {
+        double tau[9];
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            tau[3 * i + j] = P[3 * i][q] * F[3 * j][q] + P[3 * i + 1][q] * F[3 * j + 1][q] +
+                             P[3 * i + 2][q] * F[3 * j + 2][q];
+        const double pm = (tau[0] + tau[4] + tau[8]) / 3.0;
+        double s2 = 0;
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) {
+            const double d = tau[3 * a + b] - (a == b ? pm : 0.0);
+            s2 += d * d;
+          }
+        max_mises = std::max(max_mises, std::sqrt(1.5 * s2));
+      }
+    }
+    // fe_l += w P grad N_l per Gauss point, the points summed in order.
+    double fe[kShapes][3];
+    for (int l = 0; l < kShapes; ++l)
+      for (int a = 0; a < 3; ++a) {
+        alignas(64) Lanes t;
+        for (int q = 0; q < kLanes; ++q)
+          t[q] = p.weight * (P[3 * a][q] * G[l][0][q] + P[3 * a + 1][q] * G[l][1][q] +
+                             P[3 * a + 2][q] * G[l][2][q]);
+        double s = 0;
+        for (int q = 0; q < kLanes; ++q) s += t[q];
+        fe[l][a] = s;
+      }
+    for (int l = 0; l < 8; ++l) {
+      const std::size_t n = static_cast<std::size_t>(p.vox_node[vx][l]);
+      for (int i = 0; i < 3; ++i) p.fint[3 * n + i] += fe[l][i];
+    }
+    if (bubbles)
+      for (int i = 0; i < 9; ++i)
+        p.ral[9 * vx + static_cast<std::size_t>(i)] = fe[8 + i / 3][i % 3];
+  }
+  if (p.max_mises) *p.max_mises = max_mises;
+}
+
+// One entry point per instruction set, each the same source.
+void force_pass_baseline(const StvkForcePass& p) {
+  force_pass_body(p);
+}
+void tangent_baseline(const StvkTangent& t, const double x[kShapes][3], double w, double* Ke) {
+  tangent_body(t, x, w, Ke);
+}
+#if GEN4D_X86_ISAS
+__attribute__((target("avx2"))) void force_pass_avx2(const StvkForcePass& p) {
+  force_pass_body(p);
+}
+__attribute__((target("avx2"))) void tangent_avx2(const StvkTangent& t, const double x[kShapes][3],
+                                                  double w, double* Ke) {
+  tangent_body(t, x, w, Ke);
+}
+__attribute__((target("avx512f"))) void force_pass_avx512(const StvkForcePass& p) {
+  force_pass_body(p);
+}
+__attribute__((target("avx512f"))) void tangent_avx512(const StvkTangent& t,
+                                                       const double x[kShapes][3], double w,
+                                                       double* Ke) {
+  tangent_body(t, x, w, Ke);
+}
+#endif
+
+struct Kernels {
+  const char* isa;
+  void (*force_pass)(const StvkForcePass&);
+  void (*tangent)(const StvkTangent&, const double[kShapes][3], double, double*);
+};
+
+const Kernels kBaseline{"baseline", force_pass_baseline, tangent_baseline};
+#if GEN4D_X86_ISAS
+const Kernels kAvx2{"avx2", force_pass_avx2, tangent_avx2};
+const Kernels kAvx512{"avx512f", force_pass_avx512, tangent_avx512};
+#endif
+
+// AVX2 first: on the AVX-512 machine measured (AMD EPYC, bench_diagnose --isa), the AVX-512
+// build's force pass was no faster and its tangent 1.5x slower (0.38-0.47 s against
+// 0.24-0.28 s a run). AVX-512 stays selectable.
+const Kernels& best_kernels() {
+#if GEN4D_X86_ISAS
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx2")) return kAvx2;
+  if (__builtin_cpu_supports("avx512f")) return kAvx512;
+#endif
+  return kBaseline;
+}
+
+const Kernels* g_kernels = &best_kernels();
+
+}  // namespace
+
+void stvk_force_pass(const StvkForcePass& p) {
+  g_kernels->force_pass(p);
+}
+
+void stvk_element_tangent(const StvkTangent& t, const double x[kShapes][3], double w, double* Ke) {
+  g_kernels->tangent(t, x, w, Ke);
+}
+
+std::vector<std::string> element_kernel_isas() {
+  std::vector<std::string> out{"baseline"};
+#if GEN4D_X86_ISAS
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx2")) out.emplace_back("avx2");
+  if (__builtin_cpu_supports("avx512f")) out.emplace_back("avx512f");
+#endif
+  return out;
+}
+
+std::string element_kernel_isa() {
+  return g_kernels->isa;
+}
+
+void set_element_kernel_isa(const std::string& isa) {
+  const auto have = element_kernel_isas();
+  if (std::find(have.begin(), have.end(), isa) == have.end())
+    throw std::invalid_argument("element kernel: instruction set '" + isa +
+                                "' is not supported by this CPU or build");
+  if (isa == "baseline") g_kernels = &kBaseline;
+#if GEN4D_X86_ISAS
+  if (isa == "avx2") g_kernels = &kAvx2;
+  if (isa == "avx512f") g_kernels = &kAvx512;
+#endif
+}
+
+}  // namespace gen4d::diagnose
