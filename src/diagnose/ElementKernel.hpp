@@ -1,5 +1,6 @@
-//! The hot loop of the diagnose forward model, the internal forces of the voxels under the
-//! Saint Venant-Kirchhoff law, with the 8 Gauss points of a voxel as the lanes of one vector.
+//! The hot loops of the diagnose forward model, the internal forces and element tangents of
+//! the voxels under the Saint Venant-Kirchhoff law, with the 8 Gauss points of a voxel as the
+//! lanes of one vector.
 //!
 //! Each lane does the scalar element's arithmetic operation for operation, in the same order
 //! (F = sum_l x_l (x) grad N_l, the law, the viscous parts, the region factor, the scatter),
