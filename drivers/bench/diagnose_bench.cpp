@@ -21,8 +21,9 @@
 // --newton-tolerance another Newton stop (diagnose's check runs its h/2 model at 1e-4),
 // --refresh-contraction another rule for rebuilding the lagged tangent (a correction that
 // shrinks by less than this factor rebuilds it; the default 0.5),
-// --case one of the runs alone, --poisson another Poisson ratio (a calibration that absorbs a
-// soft region bends it to its bound, 0.45).
+// --isa the element kernel's instruction set (baseline, avx2, avx512f; default: the one the
+// model picks), --case one of the runs alone, --poisson another Poisson ratio (a calibration
+// that absorbs a soft region bends it to its bound, 0.45).
 #include <chrono>
 #include <cmath>
 #include <cstdio>
