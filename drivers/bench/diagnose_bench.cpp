@@ -175,7 +175,7 @@ int main(int argc, char** argv) {
             // The same run in the scalar element loop: the vector kernel's baseline, and
             // whether the two agree bit for bit.
             const Result sr = time_run(names[k], scalar_model, phys[k], req, repeat);
-            bool same = sr.trace.channel == r.trace.channel;
+            const bool same = sr.trace.channel == r.trace.channel;
             scalar_runs += fmt::format(
                 "{}    \"{}\": {{\"wall_s\": {:.4f}, \"internal_s\": {:.4f}, "
                 "\"vector_internal_speedup\": {:.2f}, \"vector_run_speedup\": {:.3f}, "

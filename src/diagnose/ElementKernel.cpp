@@ -189,14 +189,7 @@ GEN4D_ALWAYS_INLINE void force_pass_body(const StvkForcePass& p) {
           for (int j = 0; j < 3; ++j)
             tau[3 * i + j] = P[3 * i][q] * F[3 * j][q] + P[3 * i + 1][q] * F[3 * j + 1][q] +
                              P[3 * i + 2][q] * F[3 * j + 2][q];
-        const double pm = (tau[0] + tau[4] + tau[8]) / 3.0;
-        double s2 = 0;
-        for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b) {
-            const double d = tau[3 * a + b] - (a == b ? pm : 0.0);
-            s2 += d * d;
-          }
-        max_mises = std::max(max_mises, std::sqrt(1.5 * s2));
+        max_mises = std::max(max_mises, mises(tau));
       }
     }
     // fe_l += w P grad N_l per Gauss point, the points summed in order.

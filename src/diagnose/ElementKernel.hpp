@@ -11,6 +11,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -20,6 +21,18 @@ namespace gen4d::diagnose {
 //! Shape functions of the element: the 8 trilinear corners, then the 3 incompatible (bubble)
 //! modes of Wilson and Taylor, one per axis (see Model.cpp).
 constexpr int kShapes = 11;
+
+//! Von Mises equivalent of a (Kirchhoff) stress, sqrt(3/2 |dev tau|^2), row-major.
+inline double mises(const double tau[9]) {
+  const double p = (tau[0] + tau[4] + tau[8]) / 3.0;
+  double s2 = 0;
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) {
+      const double d = tau[3 * a + b] - (a == b ? p : 0.0);
+      s2 += d * d;
+    }
+  return std::sqrt(1.5 * s2);
+}
 
 //! One internal-force pass over the voxels (StVK; optional one-term Prony relaxation and
 //! Kelvin-Voigt stiffness damping).

@@ -248,17 +248,6 @@ SpMat assemble_mass(const std::vector<std::array<int, 8>>& vox_node, const std::
   return Mc;
 }
 
-double mises(const double tau[9]) {
-  const double p = (tau[0] + tau[4] + tau[8]) / 3.0;
-  double s2 = 0;
-  for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b) {
-      const double d = tau[3 * a + b] - (a == b ? p : 0.0);
-      s2 += d * d;
-    }
-  return std::sqrt(1.5 * s2);
-}
-
 void mat_mul(const double A[9], const double B[9], double C[9]) {
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j)
@@ -871,8 +860,8 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   };
 
   // The element tangent of voxel vx at positions xe in the scalar element loop.
-  auto element_tangent = [&](std::size_t vx, const double(&xe)[kShapes][3], ElemMat& Ke) {
-    const double vscale = visco ? 1.0 - ph.prony_g * rv / (1.0 + rv) : 1.0;
+  // w: h/8 times the voxel's factors, as for the kernel.
+  auto element_tangent = [&](std::size_t vx, const double(&xe)[kShapes][3], double w, ElemMat& Ke) {
     const int nshape = bubbles ? kShapes : 8;
     Ke = ElemMat::Zero();
     for (int q = 0; q < 8; ++q) {
@@ -910,7 +899,6 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
           for (int i = 0; i < 9; ++i) D[i][j] = (Pp[i] - Pm[i]) / (2 * eps);
         }
       }
-      const double w = h / 8.0 * vfac[vx] * vscale;  // h^3 / 8 * (1/h)^2
       // T[l][a][b][e] = sum_c dN_l,c Dsym[ac][be]; Ke[la][mb] += w sum_e T dN_m,e
       double T[kShapes][3][3][3];
       for (int l = 0; l < nshape; ++l)
@@ -954,11 +942,11 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
         for (int i = 0; i < 9; ++i)
           xe[8 + i / 3][i % 3] = al1[9 * vx + static_cast<std::size_t>(i)];
       ElemMat Ke;
-      if (vector_pass) {
-        stvk_element_tangent(vtangent, xe, h / 8.0 * vfac[vx] * vscale, Ke.data());
-      } else {
-        element_tangent(vx, xe, Ke);
-      }
+      const double w = h / 8.0 * vfac[vx] * vscale;  // h^3 / 8 * (1/h)^2
+      if (vector_pass)
+        stvk_element_tangent(vtangent, xe, w, Ke.data());
+      else
+        element_tangent(vx, xe, w, Ke);
       if (bubbles) {
         if (!condense(Ke, ce)) return false;
         condL[vx] = ce.L;
