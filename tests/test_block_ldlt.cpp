@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <random>
+#include <stdexcept>
+#include <string>
 
 #include "diagnose/BlockLDLT.hpp"
 #include "diagnose/NodeBlockProduct.hpp"
@@ -75,6 +77,38 @@ TEST(BlockLDLT, SolvesLikeEigenLDLT) {
     blk.solve(b, x);
     EXPECT_LT((x - 0.5 * xr).norm(), 1e-12 * xr.norm());
   }
+}
+
+// Every instruction set's build of the block kernels gives the same bits: each vector lane
+// does the scalar block product's arithmetic in its order (no fused multiply-add).
+TEST(BlockLDLT, EveryInstructionSetGivesTheSameBits) {
+  const std::string best = BlockLDLT::isa();
+  const auto isas = BlockLDLT::isas();
+  ASSERT_FALSE(isas.empty());
+  EXPECT_EQ(isas.front(), "baseline");
+  for (auto [nx, ny, nz] : {std::array<int, 3>{2, 2, 2}, {7, 3, 4}, {21, 5, 5}}) {
+    const SpMat A = grid_matrix(nx, ny, nz, 11u + static_cast<unsigned>(nz));
+    std::mt19937 rng(5);
+    std::normal_distribution<double> g;
+    Eigen::VectorXd b(A.rows());
+    for (Eigen::Index i = 0; i < b.size(); ++i) b[i] = g(rng);
+    Eigen::VectorXd x0;
+    for (const std::string& isa : isas) {
+      BlockLDLT::set_isa(isa);
+      BlockLDLT blk;
+      blk.analyze(A);
+      ASSERT_TRUE(blk.factorize(A)) << isa;
+      Eigen::VectorXd x;
+      blk.solve(b, x);
+      EXPECT_LT((A * x - b).norm(), 1e-12 * b.norm()) << isa;
+      if (x0.size() == 0) x0 = x;
+      for (Eigen::Index i = 0; i < x.size(); ++i)
+        ASSERT_EQ(x[i], x0[i]) << isa << " " << nx << "x" << ny << "x" << nz << " entry " << i;
+    }
+  }
+  BlockLDLT::set_isa(best);
+  EXPECT_EQ(BlockLDLT::isa(), best);
+  EXPECT_THROW(BlockLDLT::set_isa("sse9"), std::invalid_argument);
 }
 
 TEST(BlockLDLT, FactorsAnIndefiniteMatrixAndReportsASingularOne) {

@@ -21,15 +21,18 @@
 // --newton-tolerance another Newton stop (diagnose's check runs its h/2 model at 1e-4),
 // --refresh-contraction another rule for rebuilding the lagged tangent (a correction that
 // shrinks by less than this factor rebuilds it; the default 0.5),
-// --isa the element kernel's instruction set (baseline, avx2, avx512f; default: the one the
-// model picks), --case one of the runs alone, --poisson another Poisson ratio (a calibration
-// that absorbs a soft region bends it to its bound, 0.45).
+// --isa the instruction set of the element kernel and of the block LDL^T (baseline, avx2,
+// avx512f; default: the one each picks; the LDL^T has no AVX-512 build and keeps its own), --case
+// one of the runs alone, --poisson another Poisson ratio (a calibration that absorbs a soft region
+// bends it to its bound, 0.45).
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <string>
 
 #include "core/Deck.hpp"
+#include "diagnose/BlockLDLT.hpp"
 #include "diagnose/ElementKernel.hpp"
 #include "diagnose/Model.hpp"
 #include "validation/DriverCommon.hpp"
@@ -117,7 +120,8 @@ int main(int argc, char** argv) {
         app.add_option("--refresh-contraction", refresh,
                        "tangent rebuilt when a correction shrinks by less (0: the default)")
             ->check(CLI::Range(0.0, 1.0));
-        app.add_option("--isa", isa, "the element kernel's instruction set (default: the best)")
+        app.add_option("--isa", isa,
+                       "instruction set of the element kernel and LDL^T (default: the best)")
             ->check(CLI::IsMember(diagnose::element_kernel_isas()));
         app.add_option("--case", only, "only this run")
             ->check(CLI::IsMember({"baseline", "nominal", "damping", "corotated", "plastic"}));
@@ -126,7 +130,12 @@ int main(int argc, char** argv) {
         int rank = 0;
         MPI_Comm_rank(MPI_COMM_WORLD, &rank);
         if (rank != 0) return 0;  // serial: one run is one process's work
-        if (!isa.empty()) diagnose::set_element_kernel_isa(isa);
+        if (!isa.empty()) {
+          diagnose::set_element_kernel_isa(isa);
+          const auto ldlt = diagnose::BlockLDLT::isas();
+          if (std::find(ldlt.begin(), ldlt.end(), isa) != ldlt.end())
+            diagnose::BlockLDLT::set_isa(isa);
+        }
         std::string deck = kDeck;
         deck.replace(deck.find("{voxel_size}"), 12, fmt::format("{}", voxel_size));
         deck.replace(deck.find("{poisson}"), 9, fmt::format("{}", poisson));
@@ -192,8 +201,9 @@ int main(int argc, char** argv) {
         }
         std::printf(
             "{\n  \"model\": {\"voxels\": %zu, \"nodes\": %zu, \"repeat\": %d, "
-            "\"element_kernel\": \"%s\"},\n",
-            model.voxels(), model.nodes(), repeat, diagnose::element_kernel_isa().c_str());
+            "\"element_kernel\": \"%s\", \"block_ldlt\": \"%s\"},\n",
+            model.voxels(), model.nodes(), repeat, diagnose::element_kernel_isa().c_str(),
+            diagnose::BlockLDLT::isa().c_str());
         std::printf("  \"runs\": {\n%s\n  },\n", runs.c_str());
         std::printf("  \"trilinear\": {\n%s\n  },\n", old_runs.c_str());
         std::printf("  \"cost_over_trilinear\": {%s},\n", ratios.c_str());

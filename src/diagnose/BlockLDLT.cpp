@@ -1,8 +1,12 @@
+// Built with -ffp-contract=off (src/CMakeLists.txt), as the other vector kernels (Isa.hpp).
 #include "diagnose/BlockLDLT.hpp"
+
+#include "diagnose/Isa.hpp"
 
 #include <Eigen/OrderingMethods>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 
 namespace gen4d::diagnose {
@@ -60,11 +64,12 @@ void BlockLDLT::analyze(const SpMat& A) {
     }
   }
   start_[n] = static_cast<int>(row_.size());
-  L_.assign(9 * row_.size(), 0.0);
-  M_.assign(9 * row_.size(), 0.0);
+  L_.assign(12 * row_.size(), 0.0);
+  LT_.assign(12 * row_.size(), 0.0);
+  MT_.assign(12 * row_.size(), 0.0);
   Dinv_.assign(9 * n, 0.0);
   slot_.assign(n, -1);
-  y_.resize(3 * nodes_);
+  y_.assign(4 * n, 0.0);
 }
 
 namespace {
@@ -87,17 +92,214 @@ bool invert3(const double* a, double* inv) {
   return true;
 }
 
+// Four lanes: one row or column of a 3x3 block and a padding lane. The helpers taking and
+// returning them are always inlined, so no call passes one in a register whose width depends
+// on the instruction set (GCC's -Wpsabi note is about such calls).
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wpsabi"
+#endif
+#if defined(__GNUC__)
+typedef double V4 __attribute__((vector_size(32)));
+#else
+struct V4 {
+  double v[4];
+  double& operator[](int i) { return v[i]; }
+  friend V4 operator+(V4 a, const V4& b) {
+    for (int i = 0; i < 4; ++i) a.v[i] += b.v[i];
+    return a;
+  }
+  friend V4 operator-(V4 a, const V4& b) {
+    for (int i = 0; i < 4; ++i) a.v[i] -= b.v[i];
+    return a;
+  }
+  friend V4 operator*(V4 a, double s) {
+    for (int i = 0; i < 4; ++i) a.v[i] *= s;
+    return a;
+  }
+};
+#endif
+GEN4D_ALWAYS_INLINE V4 load4(const double* p) {
+  V4 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+GEN4D_ALWAYS_INLINE void store4(double* p, const V4& v) {
+  std::memcpy(p, &v, sizeof v);
+}
+// s * (b0 b1 b2 b3)^T for the block row or column at p (4 values).
+GEN4D_ALWAYS_INLINE V4 scaled(const double* p, double s) {
+  return load4(p) * s;
+}
+
+// The left-looking updates of column K: W_I -= L_IJ M_KJ^T for every (J, block of L_KJ) in
+// rb and the blocks of column J from row K down; row a of the product, lane b, is
+// (l_a0 m_b0 + l_a1 m_b1) + l_a2 m_b2, as the scalar 3x3 product sums it.
+GEN4D_ALWAYS_INLINE void updates_body(const std::pair<int, int>* rb, std::size_t nrb,
+                                      const int* start, const int* row, const double* L,
+                                      const double* MT, const int* slot, int K, double* W,
+                                      double* Wd) {
+  for (std::size_t r = 0; r < nrb; ++r) {
+    const int J = rb[r].first, pKJ = rb[r].second;
+    const double* mt = MT + 12 * static_cast<std::size_t>(pKJ);
+    const V4 m0 = load4(mt), m1 = load4(mt + 4), m2 = load4(mt + 8);
+    const int pend = start[J + 1];
+    for (int p = pKJ; p < pend; ++p) {
+      const int I = row[p];
+      double* dst = I == K ? Wd : W + 12 * static_cast<std::size_t>(slot[I]);
+      const double* l = L + 12 * static_cast<std::size_t>(p);
+      for (int a = 0; a < 3; ++a) {
+        const V4 t = m0 * l[4 * a] + m1 * l[4 * a + 1] + m2 * l[4 * a + 2];
+        store4(dst + 4 * a, load4(dst + 4 * a) - t);
+      }
+    }
+  }
+}
+
+// Column K's blocks from its updated W: M_IK = W_I (kept transposed), L_IK = W_I D_K^-1 (row a,
+// lane b: (w_a0 d_0b + w_a1 d_1b) + w_a2 d_2b) and its transpose.
+GEN4D_ALWAYS_INLINE void finish_body(const double* W, std::size_t nb, const double* dinv, double* L,
+                                     double* LT, double* MT) {
+  alignas(32) const double d[12] = {dinv[0], dinv[1], dinv[2], 0,       dinv[3], dinv[4],
+                                    dinv[5], 0,       dinv[6], dinv[7], dinv[8], 0};
+  const V4 d0 = load4(d), d1 = load4(d + 4), d2 = load4(d + 8);
+  for (std::size_t q = 0; q < nb; ++q) {
+    const double* w = W + 12 * q;
+    double* l = L + 12 * q;
+    double* lt = LT + 12 * q;
+    double* mt = MT + 12 * q;
+    for (int a = 0; a < 3; ++a)
+      store4(l + 4 * a, d0 * w[4 * a] + d1 * w[4 * a + 1] + d2 * w[4 * a + 2]);
+    for (int a = 0; a < 3; ++a) {
+      l[4 * a + 3] = 0;
+      for (int c = 0; c < 3; ++c) lt[4 * c + a] = l[4 * a + c], mt[4 * c + a] = w[4 * a + c];
+    }
+    lt[3] = lt[7] = lt[11] = mt[3] = mt[7] = mt[11] = 0;
+  }
+}
+
+// L z = b, D w = z, L^T x = w on the permuted, padded vector y (4 values per node). Forward:
+// lane a of column c of L; backward: lane b of row a; each lane sums as the scalar product.
+// Without AVX (kVector false) the three lanes are scalars: the baseline build's 4-lane vectors
+// are pairs of 2-lane ones, and its substitutions ran 1.7x slower so (bench_diagnose).
+template <bool kVector>
+GEN4D_ALWAYS_INLINE void solve_body(int nodes, const int* st, const int* rw, const double* L,
+                                    const double* LT, const double* Dinv, double* y) {
+  for (int K = 0; K < nodes; ++K) {
+    const double y0 = y[4 * K], y1 = y[4 * K + 1], y2 = y[4 * K + 2];
+    for (int j = st[K]; j < st[K + 1]; ++j) {
+      double* yi = y + 4 * rw[j];
+      const double* lt = LT + 12 * static_cast<std::size_t>(j);
+      if constexpr (kVector) {
+        store4(yi, load4(yi) - (scaled(lt, y0) + scaled(lt + 4, y1) + scaled(lt + 8, y2)));
+      } else {
+        for (int a = 0; a < 3; ++a) yi[a] -= lt[a] * y0 + lt[4 + a] * y1 + lt[8 + a] * y2;
+      }
+    }
+  }
+  for (int K = 0; K < nodes; ++K) {
+    const double* d = Dinv + 9 * K;
+    double* yk = y + 4 * K;
+    const double y0 = yk[0], y1 = yk[1], y2 = yk[2];
+    yk[0] = d[0] * y0 + d[1] * y1 + d[2] * y2;
+    yk[1] = d[3] * y0 + d[4] * y1 + d[5] * y2;
+    yk[2] = d[6] * y0 + d[7] * y1 + d[8] * y2;
+  }
+  for (int K = nodes - 1; K >= 0; --K) {
+    if constexpr (kVector) {
+      V4 acc = load4(y + 4 * K);
+      for (int j = st[K]; j < st[K + 1]; ++j) {
+        const double* yi = y + 4 * rw[j];
+        const double* l = L + 12 * static_cast<std::size_t>(j);
+        acc = acc - (scaled(l, yi[0]) + scaled(l + 4, yi[1]) + scaled(l + 8, yi[2]));
+      }
+      store4(y + 4 * K, acc);
+    } else {
+      double acc[3] = {y[4 * K], y[4 * K + 1], y[4 * K + 2]};
+      for (int j = st[K]; j < st[K + 1]; ++j) {
+        const double* yi = y + 4 * rw[j];
+        const double* l = L + 12 * static_cast<std::size_t>(j);
+        for (int b = 0; b < 3; ++b) acc[b] -= l[b] * yi[0] + l[4 + b] * yi[1] + l[8 + b] * yi[2];
+      }
+      for (int b = 0; b < 3; ++b) y[4 * K + b] = acc[b];
+    }
+  }
+}
+
+// One entry point per instruction set, each the same source.
+struct Kernels {
+  const char* isa;
+  void (*updates)(const std::pair<int, int>*, std::size_t, const int*, const int*, const double*,
+                  const double*, const int*, int, double*, double*);
+  void (*finish)(const double*, std::size_t, const double*, double*, double*, double*);
+  void (*solve)(int, const int*, const int*, const double*, const double*, const double*, double*);
+};
+
+#define GEN4D_BLOCK_KERNELS(name, attr, vector)                                                \
+  attr void updates_##name(const std::pair<int, int>* rb, std::size_t nrb, const int* start,   \
+                           const int* row, const double* L, const double* MT, const int* slot, \
+                           int K, double* W, double* Wd) {                                     \
+    updates_body(rb, nrb, start, row, L, MT, slot, K, W, Wd);                                  \
+  }                                                                                            \
+  attr void finish_##name(const double* W, std::size_t nb, const double* dinv, double* L,      \
+                          double* LT, double* MT) {                                            \
+    finish_body(W, nb, dinv, L, LT, MT);                                                       \
+  }                                                                                            \
+  attr void solve_##name(int nodes, const int* st, const int* rw, const double* L,             \
+                         const double* LT, const double* Dinv, double* y) {                    \
+    solve_body<vector>(nodes, st, rw, L, LT, Dinv, y);                                         \
+  }                                                                                            \
+  const Kernels k_##name{#name, updates_##name, finish_##name, solve_##name};
+
+GEN4D_BLOCK_KERNELS(baseline, , false)
+#if GEN4D_X86_ISAS
+GEN4D_BLOCK_KERNELS(avx2, __attribute__((target("avx2"))), true)
+#endif
+#undef GEN4D_BLOCK_KERNELS
+
+const Kernels& best_kernels() {
+#if GEN4D_X86_ISAS
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx2")) return k_avx2;
+#endif
+  return k_baseline;
+}
+
+const Kernels* g_kernels = &best_kernels();
+
 }  // namespace
+
+std::vector<std::string> BlockLDLT::isas() {
+  std::vector<std::string> out;
+  for (const std::string& s : cpu_isas())
+    if (s == "baseline" || s == "avx2") out.push_back(s);
+  return out;
+}
+
+std::string BlockLDLT::isa() {
+  return g_kernels->isa;
+}
+
+void BlockLDLT::set_isa(const std::string& isa) {
+  const auto have = isas();
+  if (std::find(have.begin(), have.end(), isa) == have.end())
+    throw std::invalid_argument("BlockLDLT: instruction set '" + isa +
+                                "' is not supported by this CPU or build");
+  if (isa == "baseline") g_kernels = &k_baseline;
+#if GEN4D_X86_ISAS
+  if (isa == "avx2") g_kernels = &k_avx2;
+#endif
+}
 
 bool BlockLDLT::factorize(const SpMat& A) {
   const std::size_t n = static_cast<std::size_t>(nodes_);
+  const Kernels& kern = *g_kernels;
   for (std::size_t K = 0; K < n; ++K) {
     const int b0 = start_[K], b1 = start_[K + 1];
     const std::size_t nb = static_cast<std::size_t>(b1 - b0);
-    // W: 9 values per block of column K, then 9 for the diagonal block.
-    W_.assign(9 * (nb + 1), 0.0);
+    // W: 12 values per block of column K, then 12 for the diagonal block.
+    W_.assign(12 * (nb + 1), 0.0);
     double* W = W_.data();
-    double* Wd = W + 9 * nb;
+    double* Wd = W + 12 * nb;
     for (int p = b0; p < b1; ++p)
       slot_[static_cast<std::size_t>(row_[static_cast<std::size_t>(p)])] = p - b0;
     // Gather A's column block K (rows at or below its diagonal block, new numbering).
@@ -110,43 +312,23 @@ bool BlockLDLT::factorize(const SpMat& A) {
         const int sl =
             I == static_cast<int>(K) ? static_cast<int>(nb) : slot_[static_cast<std::size_t>(I)];
         if (sl < 0) throw std::logic_error("BlockLDLT: entry outside the analysed pattern");
-        W[9 * static_cast<std::size_t>(sl) + static_cast<std::size_t>(3 * a + b)] += it.value();
+        W[12 * static_cast<std::size_t>(sl) + static_cast<std::size_t>(4 * a + b)] += it.value();
       }
     // Left-looking updates from every column J with a block in row K:
     // W_I -= L_IJ M_KJ^T for the blocks of J from row K down (M_KJ = L_KJ D_J).
-    for (const auto& [J, pKJ] : row_blocks_[K]) {
-      const double* mk = &M_[9 * static_cast<std::size_t>(pKJ)];
-      for (int p = pKJ; p < start_[static_cast<std::size_t>(J) + 1]; ++p) {
-        const int I = row_[static_cast<std::size_t>(p)];
-        double* dst = I == static_cast<int>(K)
-                          ? Wd
-                          : W + 9 * static_cast<std::size_t>(slot_[static_cast<std::size_t>(I)]);
-        const double* l = &L_[9 * static_cast<std::size_t>(p)];
-        for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b)
-            dst[3 * a + b] -=
-                l[3 * a] * mk[3 * b] + l[3 * a + 1] * mk[3 * b + 1] + l[3 * a + 2] * mk[3 * b + 2];
-      }
-    }
+    const auto& rb = row_blocks_[K];
+    kern.updates(rb.data(), rb.size(), start_.data(), row_.data(), L_.data(), MT_.data(),
+                 slot_.data(), static_cast<int>(K), W, Wd);
     for (int p = b0; p < b1; ++p)
       slot_[static_cast<std::size_t>(row_[static_cast<std::size_t>(p)])] = -1;
     // D_K (symmetrised against rounding) and its inverse.
     double D[9];
     for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b) D[3 * a + b] = 0.5 * (Wd[3 * a + b] + Wd[3 * b + a]);
+      for (int b = 0; b < 3; ++b) D[3 * a + b] = 0.5 * (Wd[4 * a + b] + Wd[4 * b + a]);
     double* dinv = &Dinv_[9 * K];
     if (!invert3(D, dinv)) return false;
-    // M_IK = W_I, L_IK = M_IK D_K^-1.
-    for (int p = b0; p < b1; ++p) {
-      const double* w = W + 9 * static_cast<std::size_t>(p - b0);
-      double* m = &M_[9 * static_cast<std::size_t>(p)];
-      double* l = &L_[9 * static_cast<std::size_t>(p)];
-      for (int i = 0; i < 9; ++i) m[i] = w[i];
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b)
-          l[3 * a + b] =
-              w[3 * a] * dinv[b] + w[3 * a + 1] * dinv[3 + b] + w[3 * a + 2] * dinv[6 + b];
-    }
+    const std::size_t o = 12 * static_cast<std::size_t>(b0);
+    kern.finish(W, nb, dinv, &L_[o], &LT_[o], &MT_[o]);
   }
   return true;
 }
@@ -155,45 +337,11 @@ void BlockLDLT::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) const {
   double* y = y_.data();
   const std::size_t n = static_cast<std::size_t>(nodes_);
   for (std::size_t o = 0; o < n; ++o)
-    for (int a = 0; a < 3; ++a) y[3 * perm_[o] + a] = b[static_cast<Eigen::Index>(3 * o) + a];
-  const int* st = start_.data();
-  const int* rw = row_.data();
-  const double* L = L_.data();
-  // L z = b (unit block-lower).
-  for (int K = 0; K < nodes_; ++K) {
-    const double y0 = y[3 * K], y1 = y[3 * K + 1], y2 = y[3 * K + 2];
-    for (int j = st[K]; j < st[K + 1]; ++j) {
-      double* yi = y + 3 * rw[j];
-      const double* l = L + 9 * j;
-      yi[0] -= l[0] * y0 + l[1] * y1 + l[2] * y2;
-      yi[1] -= l[3] * y0 + l[4] * y1 + l[5] * y2;
-      yi[2] -= l[6] * y0 + l[7] * y1 + l[8] * y2;
-    }
-  }
-  // D w = z.
-  for (std::size_t K = 0; K < n; ++K) {
-    const double* d = &Dinv_[9 * K];
-    double* yk = y + 3 * K;
-    const double y0 = yk[0], y1 = yk[1], y2 = yk[2];
-    yk[0] = d[0] * y0 + d[1] * y1 + d[2] * y2;
-    yk[1] = d[3] * y0 + d[4] * y1 + d[5] * y2;
-    yk[2] = d[6] * y0 + d[7] * y1 + d[8] * y2;
-  }
-  // L^T x = w.
-  for (int K = nodes_ - 1; K >= 0; --K) {
-    double y0 = y[3 * K], y1 = y[3 * K + 1], y2 = y[3 * K + 2];
-    for (int j = st[K]; j < st[K + 1]; ++j) {
-      const double* yi = y + 3 * rw[j];
-      const double* l = L + 9 * j;
-      y0 -= l[0] * yi[0] + l[3] * yi[1] + l[6] * yi[2];
-      y1 -= l[1] * yi[0] + l[4] * yi[1] + l[7] * yi[2];
-      y2 -= l[2] * yi[0] + l[5] * yi[1] + l[8] * yi[2];
-    }
-    y[3 * K] = y0, y[3 * K + 1] = y1, y[3 * K + 2] = y2;
-  }
+    for (int a = 0; a < 3; ++a) y[4 * perm_[o] + a] = b[static_cast<Eigen::Index>(3 * o) + a];
+  g_kernels->solve(nodes_, start_.data(), row_.data(), L_.data(), LT_.data(), Dinv_.data(), y);
   x.resize(3 * nodes_);
   for (std::size_t o = 0; o < n; ++o)
-    for (int a = 0; a < 3; ++a) x[static_cast<Eigen::Index>(3 * o) + a] = y[3 * perm_[o] + a];
+    for (int a = 0; a < 3; ++a) x[static_cast<Eigen::Index>(3 * o) + a] = y[4 * perm_[o] + a];
 }
 
 }  // namespace gen4d::diagnose

@@ -8,9 +8,14 @@
 //! tens of times and solves with it thousands of times; both were a third of a run with a
 //! scalar simplicial LDL^T. No pivoting: A must have nonsingular leading block minors (true
 //! for the model's SPD step matrices; an indefinite but nonsingular one also factors).
+//!
+//! The block products run as 4-lane vectors, one lane per row or column of a block (the 4th
+//! lane is padding), each lane doing the scalar block product's arithmetic in its order, so
+//! every instruction set's build gives the same bits (Isa.hpp); AVX2 where the CPU has it.
 #pragma once
 
 #include <Eigen/Sparse>
+#include <string>
 #include <vector>
 
 namespace gen4d::diagnose {
@@ -30,6 +35,13 @@ class BlockLDLT {
   //! Nonzero 3x3 blocks of L below its diagonal.
   std::size_t off_blocks() const { return row_.size(); }
 
+  //! The instruction sets the block kernels are built for that this CPU runs ("baseline",
+  //! "avx2"), the one in use, and a switch for tests and benchmarks (std::invalid_argument
+  //! for one this CPU or build lacks; not thread-safe).
+  static std::vector<std::string> isas();
+  static std::string isa();
+  static void set_isa(const std::string& isa);
+
  private:
   int nodes_ = 0;
   std::vector<int> perm_;   //!< new node index of each old node
@@ -38,12 +50,14 @@ class BlockLDLT {
   std::vector<int> row_;    //!< row node of each block (ascending within a column)
   //! Per node K: (J, block index of L_KJ) for every column J < K with a block in row K.
   std::vector<std::vector<std::pair<int, int>>> row_blocks_;
-  std::vector<double> L_;      //!< 9 values per block, row-major
-  std::vector<double> M_;      //!< L_IK D_K per block (the left-looking updates use it)
-  std::vector<double> Dinv_;   //!< 9 values per node: D_K^-1
-  std::vector<double> W_;      //!< work: 9 per block of the current column, + 9 for D_K
-  std::vector<int> slot_;      //!< work: row node -> position in the current column
-  mutable Eigen::VectorXd y_;  //!< permuted work vector
+  // Blocks are stored as 3 rows of 4 (the last one 0): 12 values per block.
+  std::vector<double> L_;          //!< L per block, row-major
+  std::vector<double> LT_;         //!< L^T per block (the forward substitution reads columns)
+  std::vector<double> MT_;         //!< (L_IK D_K)^T per block (the left-looking updates use it)
+  std::vector<double> Dinv_;       //!< 9 values per node: D_K^-1, row-major
+  std::vector<double> W_;          //!< work: 12 per block of the current column, + 12 for D_K
+  std::vector<int> slot_;          //!< work: row node -> position in the current column
+  mutable std::vector<double> y_;  //!< permuted work vector, 4 values per node
 };
 
 }  // namespace gen4d::diagnose

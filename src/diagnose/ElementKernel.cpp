@@ -2,20 +2,12 @@
 // where the scalar loop rounds twice, and the builds would differ in their last bits.
 #include "diagnose/ElementKernel.hpp"
 
+#include "diagnose/Isa.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
-
-// The bodies are inlined into one entry point per instruction set (GCC and Clang on x86-64);
-// elsewhere the baseline build is the only one.
-#if defined(__x86_64__) && defined(__GNUC__)
-#define GEN4D_X86_ISAS 1
-#define GEN4D_ALWAYS_INLINE inline __attribute__((always_inline))
-#else
-#define GEN4D_X86_ISAS 0
-#define GEN4D_ALWAYS_INLINE inline
-#endif
 
 namespace gen4d::diagnose {
 
@@ -277,13 +269,7 @@ void stvk_element_tangent(const StvkTangent& t, const double x[kShapes][3], doub
 }
 
 std::vector<std::string> element_kernel_isas() {
-  std::vector<std::string> out{"baseline"};
-#if GEN4D_X86_ISAS
-  __builtin_cpu_init();
-  if (__builtin_cpu_supports("avx2")) out.emplace_back("avx2");
-  if (__builtin_cpu_supports("avx512f")) out.emplace_back("avx512f");
-#endif
-  return out;
+  return cpu_isas();
 }
 
 std::string element_kernel_isa() {
