@@ -13,7 +13,8 @@ namespace gen4d::diagnose {
 
 namespace {
 
-constexpr int kLanes = 8;  // Gauss points per voxel
+constexpr int kLanes = 8;      // Gauss points per voxel
+constexpr int kShapePad = 12;  // shapes rounded up to whole 4-lane vectors
 using Lanes = double[kLanes];
 
 // F[3a + c][q] = sum_l x[l][a] G[l][c][q], summed over l in order.
@@ -120,6 +121,11 @@ GEN4D_ALWAYS_INLINE void force_pass_body(const StvkForcePass& p) {
   const double kv_m2 = p.kv_beta * 2.0 * p.kv_mu, kv_l = p.kv_beta * p.kv_lambda;
   const double prony_den = 1.0 + p.prony_rate;
   const auto& G = p.G;
+  // The gradients by Gauss point, axis and shape (padded with zeros), for the scatter.
+  alignas(64) double GT[kLanes][3][kShapePad] = {};
+  for (int q = 0; q < kLanes; ++q)
+    for (int c = 0; c < 3; ++c)
+      for (int l = 0; l < kShapes; ++l) GT[q][c][l] = G[l][c][q];
   double max_mises = p.max_mises ? *p.max_mises : 0.0;
   for (std::size_t vx = 0; vx < p.voxels; ++vx) {
     double xe[kShapes][3] = {}, ve[kShapes][3] = {};
@@ -184,18 +190,18 @@ GEN4D_ALWAYS_INLINE void force_pass_body(const StvkForcePass& p) {
         max_mises = std::max(max_mises, mises(tau));
       }
     }
-    // fe_l += w P grad N_l per Gauss point, the points summed in order.
+    // fe_l += w P grad N_l per Gauss point, the points summed in order; the shapes are the
+    // lanes here (a sum across the Gauss-point lanes would run one lane at a time).
+    alignas(64) double fs[3][kShapePad] = {};
+    for (int q = 0; q < kLanes; ++q)
+      for (int a = 0; a < 3; ++a) {
+        const double p0 = P[3 * a][q], p1 = P[3 * a + 1][q], p2 = P[3 * a + 2][q];
+        for (int l = 0; l < kShapePad; ++l)
+          fs[a][l] += p.weight * (p0 * GT[q][0][l] + p1 * GT[q][1][l] + p2 * GT[q][2][l]);
+      }
     double fe[kShapes][3];
     for (int l = 0; l < kShapes; ++l)
-      for (int a = 0; a < 3; ++a) {
-        alignas(64) Lanes t;
-        for (int q = 0; q < kLanes; ++q)
-          t[q] = p.weight * (P[3 * a][q] * G[l][0][q] + P[3 * a + 1][q] * G[l][1][q] +
-                             P[3 * a + 2][q] * G[l][2][q]);
-        double s = 0;
-        for (int q = 0; q < kLanes; ++q) s += t[q];
-        fe[l][a] = s;
-      }
+      for (int a = 0; a < 3; ++a) fe[l][a] = fs[a][l];
     for (int l = 0; l < 8; ++l) {
       const std::size_t n = static_cast<std::size_t>(p.vox_node[vx][l]);
       for (int i = 0; i < 3; ++i) p.fint[3 * n + i] += fe[l][i];
