@@ -369,6 +369,66 @@ TEST(DiagnoseModel, VectorKernelIsTheScalarElementLoopBitForBit) {
   EXPECT_THROW(set_element_kernel_isa("sse9"), std::invalid_argument);
 }
 
+// The bubbles' products sum their terms as the plain loops below do (the order of Eigen's SSE2
+// matrix-vector kernels), bit for bit on every instruction set, and they are the products.
+TEST(DiagnoseModel, BubbleProductsSumInTheScalarOrderBitForBit) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const std::string best = element_kernel_isa();
+  for (int trial = 0; trial < 20; ++trial) {
+    Eigen::Matrix<double, 9, 24> L;
+    Eigen::Matrix<double, 9, 9> K;
+    Eigen::Matrix<double, 24, 1> x;
+    Eigen::Matrix<double, 9, 1> r;
+    for (Eigen::Index i = 0; i < L.size(); ++i) L.data()[i] = u(rng) * std::exp(8 * u(rng));
+    for (Eigen::Index i = 0; i < K.size(); ++i) K.data()[i] = u(rng);
+    for (Eigen::Index i = 0; i < x.size(); ++i) x[i] = u(rng) * 1e-3;
+    for (Eigen::Index i = 0; i < r.size(); ++i) r[i] = u(rng) * 1e3;
+    const Eigen::Matrix<double, 24, 9> Lt = L.transpose();
+    const double s = 0.7 + u(rng);
+    // The reference sums: L^T r with even and odd terms apart, then the last; s A x in one
+    // running sum per row.
+    double lt_ref[24], l_ref[9], k_ref[9];
+    for (int i = 0; i < 24; ++i) {
+      double c0 = 0, c1 = 0;
+      for (int j = 0; j < 8; j += 2) {
+        c0 = L(j, i) * r[j] + c0;
+        c1 = L(j + 1, i) * r[j + 1] + c1;
+      }
+      double cc = c0 + c1;
+      cc += L(8, i) * r[8];
+      lt_ref[i] = 0.0 + cc;
+    }
+    for (int i = 0; i < 9; ++i) {
+      double cl = 0, ck = 0;
+      for (int j = 0; j < 24; ++j) cl = L(i, j) * x[j] + cl;
+      for (int j = 0; j < 9; ++j) ck = K(i, j) * r[j] + ck;
+      l_ref[i] = cl * s + 0.0;
+      k_ref[i] = ck * s + 0.0;
+    }
+    const Eigen::Matrix<double, 24, 1> lt_eigen = L.transpose() * r;
+    const Eigen::Matrix<double, 9, 1> l_eigen = s * (L * x), k_eigen = s * (K * r);
+    for (const std::string& isa : element_kernel_isas()) {
+      set_element_kernel_isa(isa);
+      double lt[24], l[9], k[9];
+      bubble_lt_times(Lt.data(), r.data(), lt);
+      bubble_l_times(L.data(), x.data(), s, l);
+      bubble_kinv_times(K.data(), r.data(), s, k);
+      for (int i = 0; i < 24; ++i) {
+        ASSERT_EQ(lt[i], lt_ref[i]) << isa << " L^T r " << i;
+        EXPECT_NEAR(lt[i], lt_eigen[i], 1e-12 * lt_eigen.cwiseAbs().maxCoeff());
+      }
+      for (int i = 0; i < 9; ++i) {
+        ASSERT_EQ(l[i], l_ref[i]) << isa << " L x " << i;
+        ASSERT_EQ(k[i], k_ref[i]) << isa << " Kinv r " << i;
+        EXPECT_NEAR(l[i], l_eigen[i], 1e-12 * l_eigen.cwiseAbs().maxCoeff());
+        EXPECT_NEAR(k[i], k_eigen[i], 1e-12 * k_eigen.cwiseAbs().maxCoeff());
+      }
+    }
+  }
+  set_element_kernel_isa(best);
+}
+
 TEST(DiagnoseModel, TrapezoidalRuleKeepsAmplitudeAndDampingDecaysAtItsModalRate) {
   const VoxelModel m(deck());
   const auto r = tip_request(m, 1.0, 0.002);

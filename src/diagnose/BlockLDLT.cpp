@@ -6,7 +6,6 @@
 #include <Eigen/OrderingMethods>
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <stdexcept>
 
 namespace gen4d::diagnose {
@@ -92,40 +91,6 @@ bool invert3(const double* a, double* inv) {
   return true;
 }
 
-// Four lanes: one row or column of a 3x3 block and a padding lane. The helpers taking and
-// returning them are always inlined, so no call passes one in a register whose width depends
-// on the instruction set (GCC's -Wpsabi note is about such calls).
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic ignored "-Wpsabi"
-#endif
-#if defined(__GNUC__)
-typedef double V4 __attribute__((vector_size(32)));
-#else
-struct V4 {
-  double v[4];
-  double& operator[](int i) { return v[i]; }
-  friend V4 operator+(V4 a, const V4& b) {
-    for (int i = 0; i < 4; ++i) a.v[i] += b.v[i];
-    return a;
-  }
-  friend V4 operator-(V4 a, const V4& b) {
-    for (int i = 0; i < 4; ++i) a.v[i] -= b.v[i];
-    return a;
-  }
-  friend V4 operator*(V4 a, double s) {
-    for (int i = 0; i < 4; ++i) a.v[i] *= s;
-    return a;
-  }
-};
-#endif
-GEN4D_ALWAYS_INLINE V4 load4(const double* p) {
-  V4 v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-GEN4D_ALWAYS_INLINE void store4(double* p, const V4& v) {
-  std::memcpy(p, &v, sizeof v);
-}
 // s * (b0 b1 b2 b3)^T for the block row or column at p (4 values).
 GEN4D_ALWAYS_INLINE V4 scaled(const double* p, double s) {
   return load4(p) * s;

@@ -213,12 +213,52 @@ GEN4D_ALWAYS_INLINE void force_pass_body(const StvkForcePass& p) {
   if (p.max_mises) *p.max_mises = max_mises;
 }
 
+// The condensed bubbles' products, with 4 output rows a vector; each output sums its terms as
+// the scalar products of Eigen's SSE2 GEMV kernels do (see ElementKernel.hpp).
+GEN4D_ALWAYS_INLINE void bubble_lt_body(const double* Lt, const double* r, double* out) {
+  for (int i = 0; i < 24; i += 4) {
+    V4 c0 = splat4(0.0), c1 = splat4(0.0);
+    for (int j = 0; j < 8; j += 2) {
+      c0 = load4(Lt + i + 24 * j) * r[j] + c0;
+      c1 = load4(Lt + i + 24 * (j + 1)) * r[j + 1] + c1;
+    }
+    V4 cc = c0 + c1;
+    cc = cc + load4(Lt + i + 24 * 8) * r[8];
+    store4(out + i, splat4(0.0) + cc);
+  }
+}
+
+template <int Cols>
+GEN4D_ALWAYS_INLINE void bubble_times_body(const double* A, const double* x, double s,
+                                           double* out) {
+  V4 c0 = splat4(0.0), c1 = splat4(0.0);
+  double c8 = 0;
+  for (int j = 0; j < Cols; ++j) {
+    const double* col = A + 9 * j;
+    c0 = load4(col) * x[j] + c0;
+    c1 = load4(col + 4) * x[j] + c1;
+    c8 = col[8] * x[j] + c8;
+  }
+  store4(out, c0 * s + splat4(0.0));
+  store4(out + 4, c1 * s + splat4(0.0));
+  out[8] = c8 * s + 0.0;
+}
+
 // One entry point per instruction set, each the same source.
 void force_pass_baseline(const StvkForcePass& p) {
   force_pass_body(p);
 }
 void tangent_baseline(const StvkTangent& t, const double x[kShapes][3], double w, double* Ke) {
   tangent_body(t, x, w, Ke);
+}
+void bubble_lt_baseline(const double* Lt, const double* r, double* out) {
+  bubble_lt_body(Lt, r, out);
+}
+void bubble_l_baseline(const double* L, const double* x, double s, double* out) {
+  bubble_times_body<24>(L, x, s, out);
+}
+void bubble_k_baseline(const double* K, const double* x, double s, double* out) {
+  bubble_times_body<9>(K, x, s, out);
 }
 #if GEN4D_X86_ISAS
 __attribute__((target("avx2"))) void force_pass_avx2(const StvkForcePass& p) {
@@ -227,6 +267,18 @@ __attribute__((target("avx2"))) void force_pass_avx2(const StvkForcePass& p) {
 __attribute__((target("avx2"))) void tangent_avx2(const StvkTangent& t, const double x[kShapes][3],
                                                   double w, double* Ke) {
   tangent_body(t, x, w, Ke);
+}
+__attribute__((target("avx2"))) void bubble_lt_avx2(const double* Lt, const double* r,
+                                                    double* out) {
+  bubble_lt_body(Lt, r, out);
+}
+__attribute__((target("avx2"))) void bubble_l_avx2(const double* L, const double* x, double s,
+                                                   double* out) {
+  bubble_times_body<24>(L, x, s, out);
+}
+__attribute__((target("avx2"))) void bubble_k_avx2(const double* K, const double* x, double s,
+                                                   double* out) {
+  bubble_times_body<9>(K, x, s, out);
 }
 __attribute__((target("avx512f"))) void force_pass_avx512(const StvkForcePass& p) {
   force_pass_body(p);
@@ -242,12 +294,19 @@ struct Kernels {
   const char* isa;
   void (*force_pass)(const StvkForcePass&);
   void (*tangent)(const StvkTangent&, const double[kShapes][3], double, double*);
+  void (*bubble_lt)(const double*, const double*, double*);
+  void (*bubble_l)(const double*, const double*, double, double*);
+  void (*bubble_k)(const double*, const double*, double, double*);
 };
 
-const Kernels kBaseline{"baseline", force_pass_baseline, tangent_baseline};
+const Kernels kBaseline{"baseline",         force_pass_baseline, tangent_baseline,
+                        bubble_lt_baseline, bubble_l_baseline,   bubble_k_baseline};
 #if GEN4D_X86_ISAS
-const Kernels kAvx2{"avx2", force_pass_avx2, tangent_avx2};
-const Kernels kAvx512{"avx512f", force_pass_avx512, tangent_avx512};
+const Kernels kAvx2{"avx2",         force_pass_avx2, tangent_avx2,
+                    bubble_lt_avx2, bubble_l_avx2,   bubble_k_avx2};
+// The bubbles' products are too small for 8 lanes: the AVX-512 set takes the AVX2 ones.
+const Kernels kAvx512{"avx512f",      force_pass_avx512, tangent_avx512,
+                      bubble_lt_avx2, bubble_l_avx2,     bubble_k_avx2};
 #endif
 
 // AVX2 first: on the AVX-512 machine measured (AMD EPYC, bench_diagnose --isa), the AVX-512
@@ -272,6 +331,16 @@ void stvk_force_pass(const StvkForcePass& p) {
 
 void stvk_element_tangent(const StvkTangent& t, const double x[kShapes][3], double w, double* Ke) {
   g_kernels->tangent(t, x, w, Ke);
+}
+
+void bubble_lt_times(const double* Lt, const double* r, double* out) {
+  g_kernels->bubble_lt(Lt, r, out);
+}
+void bubble_l_times(const double* L, const double* x, double s, double* out) {
+  g_kernels->bubble_l(L, x, s, out);
+}
+void bubble_kinv_times(const double* Kinv, const double* x, double s, double* out) {
+  g_kernels->bubble_k(Kinv, x, s, out);
 }
 
 std::vector<std::string> element_kernel_isas() {

@@ -79,6 +79,17 @@ struct StvkTangent {
 //! factors; Ke: out, the 3 kShapes square matrix, column-major.
 void stvk_element_tangent(const StvkTangent& t, const double x[kShapes][3], double w, double* Ke);
 
+//! The incompatible element's condensed bubbles, per voxel and Newton iteration: with the
+//! bubble block's inverse Kinv (9x9) and L = Kinv K_ab (9x24), both column-major,
+//! out (24) = L^T r given Lt, L's transpose (24x9, column-major);
+//! out (9) = s L x; out (9) = s Kinv x.
+//! Each output sums its terms in the order of Eigen's SSE2 matrix-vector kernels (two
+//! interleaved partial sums, even and odd terms, for L^T r; one running sum otherwise), so the
+//! results are those of Eigen's products in the default build, bit for bit.
+void bubble_lt_times(const double* Lt, const double* r, double* out);
+void bubble_l_times(const double* L, const double* x, double s, double* out);
+void bubble_kinv_times(const double* Kinv, const double* x, double s, double* out);
+
 //! The instruction sets the kernels are built for that this CPU runs ("baseline", "avx2",
 //! "avx512f"), the one in use (AVX2 where the CPU has it, the fastest measured, unless set),
 //! and a switch for tests and benchmarks

@@ -5,6 +5,7 @@
 //! exactly as the scalar code does.
 #pragma once
 
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,43 @@
 #endif
 
 namespace gen4d::diagnose {
+
+// Four double lanes (a 256-bit vector where the build has AVX, else two 128-bit halves). The
+// helpers taking and returning them are always inlined, so no call passes one in a register
+// whose width depends on the instruction set (GCC's -Wpsabi note is about such calls).
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wpsabi"
+#endif
+#if defined(__GNUC__)
+typedef double V4 __attribute__((vector_size(32)));
+#else
+struct V4 {
+  double v[4];
+  friend V4 operator+(V4 a, const V4& b) {
+    for (int i = 0; i < 4; ++i) a.v[i] += b.v[i];
+    return a;
+  }
+  friend V4 operator-(V4 a, const V4& b) {
+    for (int i = 0; i < 4; ++i) a.v[i] -= b.v[i];
+    return a;
+  }
+  friend V4 operator*(V4 a, double s) {
+    for (int i = 0; i < 4; ++i) a.v[i] *= s;
+    return a;
+  }
+};
+#endif
+GEN4D_ALWAYS_INLINE V4 load4(const double* p) {
+  V4 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+GEN4D_ALWAYS_INLINE void store4(double* p, const V4& v) {
+  std::memcpy(p, &v, sizeof v);
+}
+GEN4D_ALWAYS_INLINE V4 splat4(double x) {
+  return V4{x, x, x, x};
+}
 
 //! "baseline", then "avx2" and "avx512f" where this CPU (and build) has them.
 inline std::vector<std::string> cpu_isas() {

@@ -138,35 +138,6 @@ bool condense(const ElemMat& K, Condensed& c) {
   return true;
 }
 
-// The condensed bubbles' small products, per voxel and Newton iteration (three per voxel: a
-// third of a run's time outside the element loops went to Eigen's general matrix-vector
-// kernels' setup). Each sums its terms in the order of those kernels' SSE2 build (two
-// interleaved partial sums for the transposed product, one running sum per row otherwise),
-// so the default build's results are theirs bit for bit.
-//! out = L^T r (L 9x24, column-major).
-void bubble_lt_times(const Eigen::Matrix<double, 9, 24>& L, const double* r, double* out) {
-  for (int i = 0; i < 24; ++i) {
-    const double* row = L.data() + 9 * i;  // column i of L
-    double c0 = 0, c1 = 0;
-    for (int j = 0; j < 8; j += 2) {
-      c0 = row[j] * r[j] + c0;
-      c1 = row[j + 1] * r[j + 1] + c1;
-    }
-    double cc = c0 + c1;
-    cc += row[8] * r[8];
-    out[i] = 0.0 + cc;
-  }
-}
-//! out = s A x (A: rows x cols, column-major).
-template <int Rows, int Cols>
-void bubble_times(const Eigen::Matrix<double, Rows, Cols>& A, const double* x, double s,
-                  double* out) {
-  double c[Rows] = {};
-  for (int j = 0; j < Cols; ++j)
-    for (int i = 0; i < Rows; ++i) c[i] = A.data()[i + Rows * j] * x[j] + c[i];
-  for (int i = 0; i < Rows; ++i) out[i] = c[i] * s + 0.0;
-}
-
 //! The unit-cube element of linear elasticity at (lambda, mu) scaled to voxel size h, with
 //! the bubbles condensed (incompatible element) or left out (trilinear). False when the
 //! bubble stiffness is singular.
@@ -554,10 +525,13 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     tr.failure = "the element's bubble stiffness is singular";
     return tr;
   }
+  // Per voxel: L, its transpose (the products read both along their outputs) and Kinv.
   std::vector<Eigen::Matrix<double, 9, 24>> condL;
+  std::vector<Eigen::Matrix<double, 24, 9>> condLt;
   std::vector<Eigen::Matrix<double, 9, 9>> condKinv;
   if (bubbles) {
     condL.assign(nv, c0.L);
+    condLt.assign(nv, c0.L.transpose());
     condKinv.resize(nv);
     for (std::size_t v = 0; v < nv; ++v) condKinv[v] = c0.Kinv / vfac[v];
   }
@@ -950,6 +924,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
       if (bubbles) {
         if (!condense(Ke, ce)) return false;
         condL[vx] = ce.L;
+        condLt[vx] = ce.L.transpose();
         condKinv[vx] = ce.Kinv;
       } else {
         ce.Kc = Ke.block<24, 24>(0, 0);
@@ -1073,7 +1048,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
         a1v = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(&al[9 * vx]);
         if (bubbles_follow) {
           double Ld[9];
-          bubble_times(condL[vx], due.data(), 1.0, Ld);
+          bubble_l_times(condL[vx].data(), due.data(), 1.0, Ld);
           for (int i = 0; i < 9; ++i) a1v[i] -= Ld[i];
         }
       }
@@ -1184,7 +1159,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
         };
         for (std::size_t vx = 0; vx < al.size() / 9; ++vx) {
           double fr[24];
-          bubble_lt_times(condL[vx], &ral[9 * vx], fr);
+          bubble_lt_times(condLt[vx].data(), &ral[9 * vx], fr);
           for (int l = 0; l < 8; ++l) {
             const int dl = dof[static_cast<std::size_t>(vox_node_[vx][l])];
             if (dl >= 0)
@@ -1209,8 +1184,8 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
           Eigen::Matrix<double, 24, 1> due;
           element_du(vx, due);
           double Ld[9], Kr[9];
-          bubble_times(condL[vx], due.data(), 1.0, Ld);
-          bubble_times(condKinv[vx], &ral[9 * vx], kscale, Kr);
+          bubble_l_times(condL[vx].data(), due.data(), 1.0, Ld);
+          bubble_kinv_times(condKinv[vx].data(), &ral[9 * vx], kscale, Kr);
           for (int i = 0; i < 9; ++i) {
             const double da = Ld[i] - Kr[i];
             al1[9 * vx + static_cast<std::size_t>(i)] += da;
