@@ -661,6 +661,12 @@ TEST(DiagnoseFit, RanksShareRunsBitForBitAndTaoRecoversE) {
   batch[1].youngs_modulus *= 1.05;
   batch[2].rayleigh_alpha = 1;
   const auto preds = ev.run(batch);
+  // The accounting of the batch: 3 runs, over 2 ranks one of them waits about one run.
+  EXPECT_EQ(ev.runs(), 3);
+  EXPECT_GT(ev.run_seconds(), 0);
+  EXPECT_GE(ev.idle_seconds(), 0);
+  if (ev.ranks() == 1) EXPECT_LT(ev.idle_seconds(), 0.1 * ev.run_seconds());
+  if (ev.ranks() == 2) EXPECT_GT(ev.idle_seconds(), 0.2 * ev.run_seconds() / 3);
   for (std::size_t i = 0; i < batch.size(); ++i) {
     const Trace local = m.run(batch[i], obs.requests);
     std::size_t k = 0;

@@ -466,6 +466,7 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
       Rc.voxels = C.model->voxels();
       Rc.channels = C.channels;
       Rc.runs = cev.runs(), Rc.run_seconds = cev.run_seconds();
+      Rc.idle_seconds = cev.idle_seconds();
       if (got[0].ok || got[1].ok) measure_closest(C, tried, got, 1.0, Rc);
       log::info(
           "discretisation check, 2h grid ({} voxels, E {:.5g} Pa): error of the h model at "
@@ -477,7 +478,7 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
         Rc.done = Rc.upper_bound = Rc.coarse = true;
         return Rc;
       }
-      R.runs = Rc.runs, R.run_seconds = Rc.run_seconds;
+      R.runs = Rc.runs, R.run_seconds = Rc.run_seconds, R.idle_seconds = Rc.idle_seconds;
     }
   }
   // 2. Voxels of h/2.
@@ -508,11 +509,12 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
   std::vector<Physics> tried = {p0, p1};
   std::vector<Prediction> got = fev.run(tried);
   const long coarse_runs = R.runs;
-  const double coarse_seconds = R.run_seconds;
+  const double coarse_seconds = R.run_seconds, coarse_idle = R.idle_seconds;
   if (!got[0].ok || !got[1].ok) {
     R.skipped =
         "the baseline fails on the finer voxels: " + (got[0].ok ? got[1].failure : got[0].failure);
     R.runs = coarse_runs + fev.runs(), R.run_seconds = coarse_seconds + fev.run_seconds();
+    R.idle_seconds = coarse_idle + fev.idle_seconds();
     return R;
   }
   constexpr double kScale = 4.0 / 3.0;  // second order: e_h = 4/3 (u_h - u_h/2)
@@ -544,6 +546,7 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
   }
   R.runs = coarse_runs + fev.runs();
   R.run_seconds = coarse_seconds + fev.run_seconds();
+  R.idle_seconds = coarse_idle + fev.idle_seconds();
   R.done = true;
   log::info(
       "discretisation check (h/2 rerun, {} voxels, E {} {:.5g} Pa): error of the h model "
@@ -2351,6 +2354,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   D.runs = ev.runs() + D.refinement.runs;
   D.runs_reused = ev.reused();
   D.run_seconds = ev.run_seconds() + D.refinement.run_seconds;
+  D.idle_seconds = ev.idle_seconds() + D.refinement.idle_seconds;
   D.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   log::info(
       "verdict: {}{}; rms {:.3g} -> {:.3g} m, held-out {:.3g} -> {:.3g} m ({} runs, {} reused, "

@@ -60,6 +60,7 @@ std::string physics_key(const Physics& p, double horizon) {
 }
 
 std::vector<Prediction> Evaluator::run(const std::vector<Physics>& batch) {
+  const auto t_call = std::chrono::steady_clock::now();
   std::vector<Prediction> out(batch.size());
   // What to run: each physics neither in the memo nor earlier in this batch, once.
   std::vector<std::string> keys(batch.size());
@@ -129,9 +130,12 @@ std::vector<Prediction> Evaluator::run(const std::vector<Physics>& batch) {
       memo_.pop_front();
     }
   }
-  double all = 0;
-  MPI_Allreduce(&local_seconds, &all, 1, MPI_DOUBLE, MPI_SUM, comm_);
-  seconds_ += all;
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_call).count();
+  double local[2] = {local_seconds, wall - local_seconds}, all[2] = {0, 0};
+  MPI_Allreduce(local, all, 2, MPI_DOUBLE, MPI_SUM, comm_);
+  seconds_ += all[0];
+  idle_ += all[1];
   runs_ += static_cast<long>(todo.size());
   reused_ += static_cast<long>(batch.size() - todo.size());
   return out;

@@ -53,6 +53,9 @@ class Evaluator {
   long runs() const { return runs_; }              //!< forward runs made
   long reused() const { return reused_; }          //!< runs asked for and taken from the memo
   double run_seconds() const { return seconds_; }  //!< summed over ranks' runs
+  //! Summed over ranks: the time in run() not spent running (waiting for the other ranks'
+  //! runs, sharing the results). With P ranks, P x (wall in run()) = run + idle seconds.
+  double idle_seconds() const { return idle_; }
   const Observations& observations() const { return obs_; }
   const VoxelModel& model() const { return model_; }
   MPI_Comm comm() const { return comm_; }
@@ -70,7 +73,7 @@ class Evaluator {
   double horizon_ = std::numeric_limits<double>::infinity();
   std::vector<ChannelRequest> requests_;  //!< obs_.requests cut at horizon_
   long runs_ = 0, reused_ = 0;
-  double seconds_ = 0;
+  double seconds_ = 0, idle_ = 0;
   std::deque<std::pair<std::string, Prediction>> memo_;  //!< oldest first
   std::size_t memo_bytes_ = 0;
 };

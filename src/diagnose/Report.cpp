@@ -190,8 +190,9 @@ std::string json(const Diagnosis& d) {
                          jstr(d.phases[i].name), d.phases[i].runs, jnum(d.phases[i].wall_seconds));
   kv("cost",
      fmt::format("{{\"forward_runs\": {}, \"runs_reused\": {}, \"run_seconds\": {}, "
-                 "\"wall_seconds\": {}, \"ranks\": {}, \"phases\": {}]}}",
-                 d.runs, d.runs_reused, jnum(d.run_seconds), jnum(d.wall_seconds), d.ranks, costs),
+                 "\"idle_seconds\": {}, \"wall_seconds\": {}, \"ranks\": {}, \"phases\": {}]}}",
+                 d.runs, d.runs_reused, jnum(d.run_seconds), jnum(d.idle_seconds),
+                 jnum(d.wall_seconds), d.ranks, costs),
      true);
   return s + "}\n";
 }
@@ -328,8 +329,9 @@ std::string markdown(const Diagnosis& d) {
   m << "\n\n";
   m << fmt::format(
       "Cost: {} forward runs ({} more asked for again and taken from the memo), {:.1f} s of "
-      "runs, {:.1f} s wall on {} rank(s).\n\n",
-      d.runs, d.runs_reused, d.run_seconds, d.wall_seconds, d.ranks);
+      "runs, {:.1f} s wall on {} rank(s); the ranks spent {:.1f} s more in batches of runs "
+      "waiting for one another's runs and exchanging results.\n\n",
+      d.runs, d.runs_reused, d.run_seconds, d.wall_seconds, d.ranks, d.idle_seconds);
   if (!d.phases.empty()) {
     m << "| phase | forward runs | wall s |\n|---|---:|---:|\n";
     for (const auto& p : d.phases)

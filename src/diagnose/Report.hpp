@@ -63,7 +63,7 @@ struct RefinementCheck {
   //! difference (safety factor 3) bounds the error, and no h/2 run was needed.
   bool coarse = false;
   long runs = 0;
-  double run_seconds = 0;
+  double run_seconds = 0, idle_seconds = 0;
 };
 
 //! The most held-out chi-square a missing effect could explain: the calibrated baseline's
@@ -119,6 +119,7 @@ struct Diagnosis {
   long runs = 0;
   long runs_reused = 0;  //!< runs asked for again and taken from the evaluator's memo
   double wall_seconds = 0, run_seconds = 0;
+  double idle_seconds = 0;  //!< rank seconds in batches of runs not spent running (Evaluator)
   //! Forward runs and wall seconds by phase of the method, in order.
   struct Phase {
     std::string name;
