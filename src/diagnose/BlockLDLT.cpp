@@ -153,11 +153,12 @@ GEN4D_ALWAYS_INLINE void solve_body(int nodes, const int* st, const int* rw, con
     const double y0 = y[4 * K], y1 = y[4 * K + 1], y2 = y[4 * K + 2];
     for (int j = st[K]; j < st[K + 1]; ++j) {
       double* yi = y + 4 * rw[j];
-      const double* lt = LT + 12 * static_cast<std::size_t>(j);
       if constexpr (kVector) {
+        const double* lt = LT + 12 * static_cast<std::size_t>(j);
         store4(yi, load4(yi) - (scaled(lt, y0) + scaled(lt + 4, y1) + scaled(lt + 8, y2)));
-      } else {
-        for (int a = 0; a < 3; ++a) yi[a] -= lt[a] * y0 + lt[4 + a] * y1 + lt[8 + a] * y2;
+      } else {  // the rows of L: one array read by both substitutions
+        const double* l = L + 12 * static_cast<std::size_t>(j);
+        for (int a = 0; a < 3; ++a) yi[a] -= l[4 * a] * y0 + l[4 * a + 1] * y1 + l[4 * a + 2] * y2;
       }
     }
   }

@@ -214,34 +214,57 @@ GEN4D_ALWAYS_INLINE void force_pass_body(const StvkForcePass& p) {
 }
 
 // The condensed bubbles' products, with 4 output rows a vector; each output sums its terms as
-// the scalar products of Eigen's SSE2 GEMV kernels do (see ElementKernel.hpp).
+// the scalar products of Eigen's SSE2 GEMV kernels do (see ElementKernel.hpp). Without AVX
+// (kVector false) the loops are scalar: the baseline build's 4-lane vectors went through the
+// stack there, and a run's bubble products took 3x as long (bench_diagnose --isa baseline).
+template <bool kVector>
 GEN4D_ALWAYS_INLINE void bubble_lt_body(const double* Lt, const double* r, double* out) {
-  for (int i = 0; i < 24; i += 4) {
-    V4 c0 = splat4(0.0), c1 = splat4(0.0);
-    for (int j = 0; j < 8; j += 2) {
-      c0 = load4(Lt + i + 24 * j) * r[j] + c0;
-      c1 = load4(Lt + i + 24 * (j + 1)) * r[j + 1] + c1;
+  if constexpr (kVector) {
+    for (int i = 0; i < 24; i += 4) {
+      V4 c0 = splat4(0.0), c1 = splat4(0.0);
+      for (int j = 0; j < 8; j += 2) {
+        c0 = load4(Lt + i + 24 * j) * r[j] + c0;
+        c1 = load4(Lt + i + 24 * (j + 1)) * r[j + 1] + c1;
+      }
+      V4 cc = c0 + c1;
+      cc = cc + load4(Lt + i + 24 * 8) * r[8];
+      store4(out + i, splat4(0.0) + cc);
     }
-    V4 cc = c0 + c1;
-    cc = cc + load4(Lt + i + 24 * 8) * r[8];
-    store4(out + i, splat4(0.0) + cc);
+  } else {
+    for (int i = 0; i < 24; ++i) {
+      double c0 = 0, c1 = 0;
+      for (int j = 0; j < 8; j += 2) {
+        c0 = Lt[i + 24 * j] * r[j] + c0;
+        c1 = Lt[i + 24 * (j + 1)] * r[j + 1] + c1;
+      }
+      double cc = c0 + c1;
+      cc += Lt[i + 24 * 8] * r[8];
+      out[i] = 0.0 + cc;
+    }
   }
 }
 
-template <int Cols>
+template <int Cols, bool kVector>
 GEN4D_ALWAYS_INLINE void bubble_times_body(const double* A, const double* x, double s,
                                            double* out) {
-  V4 c0 = splat4(0.0), c1 = splat4(0.0);
-  double c8 = 0;
-  for (int j = 0; j < Cols; ++j) {
-    const double* col = A + 9 * j;
-    c0 = load4(col) * x[j] + c0;
-    c1 = load4(col + 4) * x[j] + c1;
-    c8 = col[8] * x[j] + c8;
+  if constexpr (kVector) {
+    V4 c0 = splat4(0.0), c1 = splat4(0.0);
+    double c8 = 0;
+    for (int j = 0; j < Cols; ++j) {
+      const double* col = A + 9 * j;
+      c0 = load4(col) * x[j] + c0;
+      c1 = load4(col + 4) * x[j] + c1;
+      c8 = col[8] * x[j] + c8;
+    }
+    store4(out, c0 * s + splat4(0.0));
+    store4(out + 4, c1 * s + splat4(0.0));
+    out[8] = c8 * s + 0.0;
+  } else {
+    double c[9] = {};
+    for (int j = 0; j < Cols; ++j)
+      for (int i = 0; i < 9; ++i) c[i] = A[i + 9 * j] * x[j] + c[i];
+    for (int i = 0; i < 9; ++i) out[i] = c[i] * s + 0.0;
   }
-  store4(out, c0 * s + splat4(0.0));
-  store4(out + 4, c1 * s + splat4(0.0));
-  out[8] = c8 * s + 0.0;
 }
 
 // One entry point per instruction set, each the same source.
@@ -252,13 +275,13 @@ void tangent_baseline(const StvkTangent& t, const double x[kShapes][3], double w
   tangent_body(t, x, w, Ke);
 }
 void bubble_lt_baseline(const double* Lt, const double* r, double* out) {
-  bubble_lt_body(Lt, r, out);
+  bubble_lt_body<false>(Lt, r, out);
 }
 void bubble_l_baseline(const double* L, const double* x, double s, double* out) {
-  bubble_times_body<24>(L, x, s, out);
+  bubble_times_body<24, false>(L, x, s, out);
 }
 void bubble_k_baseline(const double* K, const double* x, double s, double* out) {
-  bubble_times_body<9>(K, x, s, out);
+  bubble_times_body<9, false>(K, x, s, out);
 }
 #if GEN4D_X86_ISAS
 __attribute__((target("avx2"))) void force_pass_avx2(const StvkForcePass& p) {
@@ -270,15 +293,15 @@ __attribute__((target("avx2"))) void tangent_avx2(const StvkTangent& t, const do
 }
 __attribute__((target("avx2"))) void bubble_lt_avx2(const double* Lt, const double* r,
                                                     double* out) {
-  bubble_lt_body(Lt, r, out);
+  bubble_lt_body<true>(Lt, r, out);
 }
 __attribute__((target("avx2"))) void bubble_l_avx2(const double* L, const double* x, double s,
                                                    double* out) {
-  bubble_times_body<24>(L, x, s, out);
+  bubble_times_body<24, true>(L, x, s, out);
 }
 __attribute__((target("avx2"))) void bubble_k_avx2(const double* K, const double* x, double s,
                                                    double* out) {
-  bubble_times_body<9>(K, x, s, out);
+  bubble_times_body<9, true>(K, x, s, out);
 }
 __attribute__((target("avx512f"))) void force_pass_avx512(const StvkForcePass& p) {
   force_pass_body(p);
