@@ -222,23 +222,16 @@ GEN4D_BLOCK_KERNELS(avx2, __attribute__((target("avx2"))), true)
 #endif
 #undef GEN4D_BLOCK_KERNELS
 
-const Kernels& best_kernels() {
 #if GEN4D_X86_ISAS
-  __builtin_cpu_init();
-  if (__builtin_cpu_supports("avx2")) return k_avx2;
+IsaDispatch<Kernels> g_kernels({&k_baseline, &k_avx2}, "BlockLDLT");
+#else
+IsaDispatch<Kernels> g_kernels({&k_baseline}, "BlockLDLT");
 #endif
-  return k_baseline;
-}
-
-const Kernels* g_kernels = &best_kernels();
 
 }  // namespace
 
 std::vector<std::string> BlockLDLT::isas() {
-  std::vector<std::string> out;
-  for (const std::string& s : cpu_isas())
-    if (s == "baseline" || s == "avx2") out.push_back(s);
-  return out;
+  return g_kernels.isas();
 }
 
 std::string BlockLDLT::isa() {
@@ -246,14 +239,7 @@ std::string BlockLDLT::isa() {
 }
 
 void BlockLDLT::set_isa(const std::string& isa) {
-  const auto have = isas();
-  if (std::find(have.begin(), have.end(), isa) == have.end())
-    throw std::invalid_argument("BlockLDLT: instruction set '" + isa +
-                                "' is not supported by this CPU or build");
-  if (isa == "baseline") g_kernels = &k_baseline;
-#if GEN4D_X86_ISAS
-  if (isa == "avx2") g_kernels = &k_avx2;
-#endif
+  g_kernels.set(isa);
 }
 
 bool BlockLDLT::factorize(const SpMat& A) {

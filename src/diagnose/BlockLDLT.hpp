@@ -12,6 +12,7 @@
 //! The block products run as 4-lane vectors, one lane per row or column of a block (the 4th
 //! lane is padding), each lane doing the scalar block product's arithmetic in its order, so
 //! every instruction set's build gives the same bits (Isa.hpp); AVX2 where the CPU has it.
+//! The baseline build's substitutions are scalar loops with the same sums.
 #pragma once
 
 #include <Eigen/Sparse>

@@ -332,19 +332,14 @@ const Kernels kAvx512{"avx512f",      force_pass_avx512, tangent_avx512,
                       bubble_lt_avx2, bubble_l_avx2,     bubble_k_avx2};
 #endif
 
-// AVX2 first: on the AVX-512 machine measured (AMD EPYC, bench_diagnose --isa), the AVX-512
-// build's force pass was no faster and its tangent 1.5x slower (0.38-0.47 s against
-// 0.24-0.28 s a run). AVX-512 stays selectable.
-const Kernels& best_kernels() {
+// AVX2 first (IsaDispatch): on the AVX-512 machine measured (AMD EPYC, bench_diagnose --isa),
+// the AVX-512 build's force pass was no faster and its tangent 1.5x slower (0.38-0.47 s
+// against 0.24-0.28 s a run). AVX-512 stays selectable.
 #if GEN4D_X86_ISAS
-  __builtin_cpu_init();
-  if (__builtin_cpu_supports("avx2")) return kAvx2;
-  if (__builtin_cpu_supports("avx512f")) return kAvx512;
+IsaDispatch<Kernels> g_kernels({&kBaseline, &kAvx2, &kAvx512}, "element kernel");
+#else
+IsaDispatch<Kernels> g_kernels({&kBaseline}, "element kernel");
 #endif
-  return kBaseline;
-}
-
-const Kernels* g_kernels = &best_kernels();
 
 }  // namespace
 
@@ -367,7 +362,7 @@ void bubble_kinv_times(const double* Kinv, const double* x, double s, double* ou
 }
 
 std::vector<std::string> element_kernel_isas() {
-  return cpu_isas();
+  return g_kernels.isas();
 }
 
 std::string element_kernel_isa() {
@@ -375,15 +370,7 @@ std::string element_kernel_isa() {
 }
 
 void set_element_kernel_isa(const std::string& isa) {
-  const auto have = element_kernel_isas();
-  if (std::find(have.begin(), have.end(), isa) == have.end())
-    throw std::invalid_argument("element kernel: instruction set '" + isa +
-                                "' is not supported by this CPU or build");
-  if (isa == "baseline") g_kernels = &kBaseline;
-#if GEN4D_X86_ISAS
-  if (isa == "avx2") g_kernels = &kAvx2;
-  if (isa == "avx512f") g_kernels = &kAvx512;
-#endif
+  g_kernels.set(isa);
 }
 
 }  // namespace gen4d::diagnose

@@ -5,8 +5,11 @@
 //! exactly as the scalar code does.
 #pragma once
 
+#include <algorithm>
 #include <cstring>
+#include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -66,5 +69,49 @@ inline std::vector<std::string> cpu_isas() {
 #endif
   return out;
 }
+
+//! A kernel's table of entry points per instruction set (Table has a `const char* isa`) and the
+//! one in use: AVX2 where the CPU has it (on the AMD EPYC measured, the AVX-512 builds were no
+//! faster: bench_diagnose --isa), else AVX-512, else the baseline; switchable for tests and
+//! benchmarks (not thread-safe).
+template <class Table>
+class IsaDispatch {
+ public:
+  //! builds: the kernel's tables, the baseline's first; what: the kernel's name for errors.
+  IsaDispatch(std::vector<const Table*> builds, const char* what)
+      : builds_(std::move(builds)), what_(what), use_(builds_.front()) {
+    for (const char* want : {"avx512f", "avx2"})
+      if (const Table* t = runnable(want)) use_ = t;
+  }
+  const Table& operator*() const { return *use_; }
+  const Table* operator->() const { return use_; }
+  //! The builds this CPU runs, the baseline first.
+  std::vector<std::string> isas() const {
+    std::vector<std::string> out;
+    for (const Table* t : builds_)
+      if (runnable(t->isa)) out.emplace_back(t->isa);
+    return out;
+  }
+  //! std::invalid_argument for a build this CPU or the kernel lacks.
+  void set(const std::string& isa) {
+    const Table* t = runnable(isa);
+    if (!t)
+      throw std::invalid_argument(std::string(what_) + ": instruction set '" + isa +
+                                  "' is not supported by this CPU or build");
+    use_ = t;
+  }
+
+ private:
+  const Table* runnable(const std::string& isa) const {
+    const auto cpu = cpu_isas();
+    if (std::find(cpu.begin(), cpu.end(), isa) == cpu.end()) return nullptr;
+    for (const Table* t : builds_)
+      if (isa == t->isa) return t;
+    return nullptr;
+  }
+  std::vector<const Table*> builds_;
+  const char* what_;
+  const Table* use_;
+};
 
 }  // namespace gen4d::diagnose
