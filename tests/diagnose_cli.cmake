@@ -12,6 +12,12 @@ if(TARGET gen4d)
   find_program(GEN4D_CCX ccx)
   # Debian's python3 (numpy from python3-numpy), not another one earlier on PATH.
   find_program(GEN4D_PYTHON3 NAMES python3 PATHS /usr/bin NO_DEFAULT_PATH)
+  if(GEN4D_PYTHON3)
+    # The blind set's scoring rules and its damping/drag equivalence (no CalculiX needed).
+    add_test(NAME blind_scoring
+             COMMAND ${GEN4D_PYTHON3} ${CMAKE_CURRENT_SOURCE_DIR}/check_blind_scoring.py
+                     ${CMAKE_SOURCE_DIR}/drivers/validation/diagnose_blind.py)
+  endif()
   if(GEN4D_CCX AND GEN4D_PYTHON3)
     set(blind ${CMAKE_CURRENT_BINARY_DIR}/scratch/diagnose_blind_small)
     add_test(NAME diagnose_blind_small

@@ -1,0 +1,78 @@
+#!/usr/bin/env python3
+"""Checks the blind set's scoring rules (drivers/validation/diagnose_blind.py) on made-up
+truth/report pairs, and its modal equivalence of mass damping and surface drag.
+
+Usage: check_blind_scoring.py PATH/TO/diagnose_blind.py
+
+- An "ambiguous" verdict counts as correct only when its two contenders are the truth and
+  the confounder that truth.json's separability check found inseparable; a separable case,
+  other contenders, or a confounder named alone stay wrong; the strict count is kept apart.
+- The modal equivalent alpha = c (P L + 4 A_tip) / (rho A L) maps drag to damping and back.
+"""
+import importlib.util
+import sys
+
+
+def main():
+    spec = importlib.util.spec_from_file_location("diagnose_blind", sys.argv[1])
+    db = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(db)
+    failures = []
+
+    def check(cond, what):
+        print(("ok   " if cond else "FAIL ") + what)
+        if not cond:
+            failures.append(what)
+
+    def truth(separable):
+        return {"effect": "air_drag", "parameters": {"linear": 8.0, "quadratic": 0.0},
+                "scored_parameters": ["linear"], "detectable": True,
+                "separability": None if separable is None else {
+                    "confounder": "damping", "delta_chi2": 30.0 if separable else 2.0,
+                    "separable": separable}}
+
+    def report(verdict, effect, contenders, linear=8.4):
+        return {"verdict": verdict, "effect": effect, "contenders": contenders,
+                "effect_parameters": {"linear": {"value": linear}} if effect == "air_drag"
+                else {"alpha": {"value": 0.7}},
+                "heldout_rms_before": 1.0, "heldout_rms_after": 0.1}
+
+    amb = report("ambiguous", "air_drag", ["air_drag", "damping"])
+    r = db.score_case(truth(False), amb)
+    check(r["correct"] and r["inseparable"] and not r["strict"],
+          "ambiguous {truth, inseparable confounder}: correct, not strict")
+    check(abs(r["param_errors"]["linear"] - 0.05) < 1e-12,
+          "its parameters are scored when the truth is ranked first")
+    r = db.score_case(truth(True), amb)
+    check(not r["correct"], "ambiguous on a separable case: wrong")
+    r = db.score_case(truth(None), amb)
+    check(not r["correct"], "ambiguous where separability was not checked: wrong")
+    r = db.score_case(truth(False), report("ambiguous", "air_drag", ["air_drag", "gravity"]))
+    check(not r["correct"], "ambiguous with another contender: wrong")
+    r = db.score_case(truth(False), report("missing_physics", "damping", ["damping"]))
+    check(not r["correct"], "the confounder named alone: wrong")
+    r = db.score_case(truth(True), report("missing_physics", "air_drag", ["air_drag"]))
+    check(r["correct"] and r["strict"] and not r["inseparable"], "the truth named: strict")
+    null = dict(truth(None), effect=None, parameters={}, scored_parameters=[])
+    r = db.score_case(null, report("ambiguous", "air_drag", ["air_drag", "damping"]))
+    check(not r["correct"] and not r["false_discovery"], "null case, ambiguous: wrong")
+
+    case = {"effect": "air_drag", "params": {"linear": 8.0, "quadratic": 0.0},
+            "n": (20, 4, 4), "h": 0.01}
+    eff, name, alpha = db.confounder(case)
+    L, A, P = 0.2, 0.04 ** 2, 0.16
+    check(eff == "damping" and name == "alpha"
+          and abs(alpha - 8.0 * (P * L + 4 * A) / (db.RHO * A * L)) < 1e-12,
+          "air drag 8 -> alpha %.4g" % alpha)
+    back = db.confounder({"effect": "damping", "params": {"alpha": alpha, "beta": 0.0},
+                          "n": (20, 4, 4), "h": 0.01})
+    check(back[0] == "air_drag" and abs(back[2] - 8.0) < 1e-12, "and back to linear 8")
+    check(db.confounder({"effect": "damping", "params": {"alpha": 0.0, "beta": 2e-3},
+                         "n": (20, 4, 4), "h": 0.01}) is None,
+          "stiffness-proportional damping has no such confounder")
+    print("%d failure(s)" % len(failures))
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
