@@ -619,6 +619,13 @@ def run_ccx(ccx, inp, label, keep_dir=None):
         shutil.rmtree(tmp, ignore_errors=True)
 
 
+def run_from_rest(ccx, inp, label, keep_dir=None):
+    """run_ccx's times and displacements with the rest state (t = 0, u = 0) first."""
+    t, u, _ = run_ccx(ccx, inp, label, keep_dir)
+    return (np.concatenate([[0.0], t]),
+            {n: np.vstack([np.zeros(3), a]) for n, a in u.items()})
+
+
 def parse_dat(text):
     """Displacement blocks and stress blocks of a ccx .dat file."""
     times, disp, stress = [], {}, []
@@ -791,9 +798,7 @@ def generate_case(case, out_dir, ccx, element, reference, separability=False):
     if case["effect"] == "plasticity":
         prepare_plasticity(case, mesh, ccx, nodes)
     inp = write_inp(case, mesh, "truth", nodes, case["end_time"])
-    tc, uc, _ = run_ccx(ccx, inp, case["name"], keep_dir=os.path.join(cdir, "ccx"))
-    tc = np.concatenate([[0.0], tc])
-    uc = {n: np.vstack([np.zeros(3), a]) for n, a in uc.items()}
+    tc, uc = run_from_rest(ccx, inp, case["name"], keep_dir=os.path.join(cdir, "ccx"))
     summary = motion_summary(tc, uc[tip])
     ts = sample_times(case["end_time"], rng)
     us = {n: catmull_rom(tc, uc[n], ts) for n in markers}
@@ -818,9 +823,7 @@ def reference_comparison(case, mesh, ccx, nodes, markers, tc, uc, tip):
     """Effect-free run with the same loads: frequency ratio, offset change
     and the marker RMS difference in noise sigmas."""
     inp = write_inp(case, mesh, "reference", nodes, case["end_time"])
-    tr, ur, _ = run_ccx(ccx, inp, case["name"] + " (reference)")
-    tr = np.concatenate([[0.0], tr])
-    ur = {n: np.vstack([np.zeros(3), a]) for n, a in ur.items()}
+    tr, ur = run_from_rest(ccx, inp, case["name"] + " (reference)")
     ref = motion_summary(tr, ur[tip])
     diff = np.sqrt(np.mean([np.mean(np.sum((uc[n] - ur[n]) ** 2, axis=1)) for n in markers]))
     snr = float(diff / case["noise"])
@@ -847,8 +850,7 @@ def confounder(case):
     return None
 
 
-def confounder_case(case, value):
-    eff, name, _ = confounder(case)
+def confounder_case(case, eff, value):
     params = {"alpha": value, "beta": 0.0} if eff == "damping" else {
         "linear": value, "quadratic": 0.0}
     return dict(case, effect=eff, params=params)
@@ -868,14 +870,12 @@ def separability_check(case, mesh, ccx, nodes, markers, ts, us):
     sigma = case["noise"]
 
     def run(value):
-        c = confounder_case(case, value)
+        c = confounder_case(case, eff, value)
         inp = write_inp(c, mesh, "truth", nodes, case["end_time"])
-        tc, uc, _ = run_ccx(ccx, inp, "%s (confounder %s %s = %.4g)"
-                            % (case["name"], eff, pname, value))
-        tc = np.concatenate([[0.0], tc])
-        d = np.concatenate([(catmull_rom(tc, np.vstack([np.zeros(3), uc[n]]), ts)
-                             - us[n]).ravel() for n in markers]) / sigma
-        return d
+        tc, uc = run_from_rest(ccx, inp, "%s (confounder %s %s = %.4g)"
+                               % (case["name"], eff, pname, value))
+        return np.concatenate([(catmull_rom(tc, uc[n], ts) - us[n]).ravel()
+                               for n in markers]) / sigma
 
     d0 = run(k0)
     k1 = 1.25 * k0
@@ -938,10 +938,9 @@ def cmd_generate(args):
         return 2
     os.makedirs(args.out, exist_ok=True)
     listed = []
+    sep = args.separability == "on" or (args.separability == "auto" and args.set == "full")
     for case in cases:
         try:
-            sep = args.separability == "on" or (args.separability == "auto"
-                                                 and args.set == "full")
             truth, summary = generate_case(case, args.out, ccx, args.element, args.reference,
                                            sep)
         except CcxError as e:
