@@ -1079,8 +1079,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       for (std::size_t gi = 0; gi < groups.size(); ++gi)
         for (const auto& p : groups[gi]) probes.push_back({e, var, gi, p});
       if (e->name() == "material_law" && std::abs(calibrated.poisson_ratio - nu_deck) > 0.05)
-        for (const auto& p : groups.back())
-          probes.push_back({e, var, groups.size(), p, nu_deck});
+        for (const auto& p : groups.back()) probes.push_back({e, var, groups.size(), p, nu_deck});
     }
   }
   std::vector<Physics> batch;
