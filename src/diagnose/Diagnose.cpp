@@ -1063,30 +1063,34 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     std::string variant;
     std::size_t group;
     std::vector<double> p;
-    double poisson_ratio = 0;  //!< > 0: the probe runs at this nu instead of the calibrated one
+    std::size_t baseline = 0;  //!< 0: the calibrated baseline, else bases[baseline]
   };
-  // Another hyperelastic law is probed at the calibrated E and nu, and also at the deck's nu
-  // when the calibration moved nu far from it: fitted under the wrong law, nu can run to a
-  // bound (material-law-2 of the blind set: StVK against Neo-Hookean data at 10 % strain,
-  // nu 0.45), where the other law is a poor probe (18.7 % of chi2 there, 25.1 % at the deck's
-  // nu, which ranks the law among the effects refitted). The better group counts.
-  const double nu_deck = model.nominal().poisson_ratio;
+  // An effect may ask for probes at other baselines too (Effect::probe_baselines): their
+  // groups follow the calibrated baseline's, numbered on, and the best group counts.
+  std::vector<Physics> bases = {calibrated};
   std::vector<Probe> probes;
   for (const Effect* e : library) {
     if (!e->applicable(ctx)) continue;
     for (const auto& var : e->variants(ctx)) {
       const auto groups = e->probe_groups(ctx, var);
-      for (std::size_t gi = 0; gi < groups.size(); ++gi)
-        for (const auto& p : groups[gi]) probes.push_back({e, var, gi, p});
-      if (e->name() == "material_law" && std::abs(calibrated.poisson_ratio - nu_deck) > 0.05)
-        for (const auto& p : groups.back()) probes.push_back({e, var, groups.size(), p, nu_deck});
+      std::size_t group = 0;
+      for (const auto& g : groups) {
+        for (const auto& p : g) probes.push_back({e, var, group, p});
+        ++group;
+      }
+      for (const Physics& b : e->probe_baselines(ctx, var)) {
+        bases.push_back(b);
+        for (const auto& g : groups) {
+          for (const auto& p : g) probes.push_back({e, var, group, p, bases.size() - 1});
+          ++group;
+        }
+      }
     }
   }
   std::vector<Physics> batch;
   for (const Probe& p : probes) {
-    Physics ph = calibrated;
+    Physics ph = bases[p.baseline];
     p.effect->apply(p.variant, p.p, ctx, ph);
-    if (p.poisson_ratio > 0) ph.poisson_ratio = p.poisson_ratio;
     batch.push_back(ph);
   }
   const auto probe_preds = ev.run(batch);

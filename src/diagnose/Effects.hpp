@@ -58,6 +58,14 @@ class Effect {
   //! Screening probes, natural units: each group's probes are combined linearly.
   virtual std::vector<std::vector<std::vector<double>>> probe_groups(
       const EffectContext& c, const std::string& variant) const = 0;
+  //! Baselines besides the calibrated one (EffectContext::base) at which screening probes
+  //! the effect as well: each a copy of the calibrated baseline with some of its parameters
+  //! changed, run with every probe group applied on top; the best group counts. For effects
+  //! whose linear probe is poor where the calibration has carried the baseline, having fitted
+  //! the data under the wrong model (material_law: nu at a bound). Default: none.
+  virtual std::vector<Physics> probe_baselines(const EffectContext&, const std::string&) const {
+    return {};
+  }
   //! True when the model response grows from the null value in proportion to the parameters
   //! (so a probe may be scaled to start the fit).
   virtual bool scalable() const { return false; }
