@@ -1147,6 +1147,11 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     if (gain > it->screen_gain) {
       it->screen_gain = gain;
       it->z.clear();
+      it->base_start.clear();
+      if (probes[i].baseline != 0) {
+        const Physics& b = bases[probes[i].baseline];
+        it->base_start = {std::log(b.youngs_modulus), b.poisson_ratio};
+      }
       const auto specs = probes[i].effect->params(ctx, probes[i].variant);
       for (std::size_t q = 0; q < specs.size(); ++q)
         it->z.push_back(to_z(specs[q], std::clamp(start[q], specs[q].lo, specs[q].hi)));
@@ -1230,7 +1235,9 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     // that already passes (it could be neither the verdict nor an ambiguous contender).
     for (const Candidate& f : variant_fits)
       if (f.passes) pr.abandon_chi2 = std::min(pr.abandon_chi2, kAbandonFactor * f.chi2);
-    std::vector<double> z0 = base.z;
+    // From the baseline its best screening group ran at (the calibrated one, or one the
+    // effect asked for: a law swapped in at the deck's nu).
+    std::vector<double> z0 = c.base_start.empty() ? base.z : c.base_start;
     z0.insert(z0.end(), c.z.begin(), c.z.end());
     const Candidate* nest = nullptr;  // the best fitted variant nested in this one
     for (const Candidate& f : variant_fits) {

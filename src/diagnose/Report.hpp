@@ -26,10 +26,13 @@ struct Candidate {
   bool fitted = false;
   std::vector<ParamEstimate> params;
   std::vector<double> z;  //!< internal coordinates (baseline first)
-  double chi2 = 0;        //!< training chi-square
-  int k = 0;              //!< parameters counted by BIC (continuous + discrete)
-  double lrt = 0;         //!< N ln(chi2_0 / chi2)
-  double delta_bic = 0;   //!< lrt - k ln N (> 0 favours the effect)
+  //! The baseline's (log E, nu) at which the best screening group ran when that was not the
+  //! calibrated baseline (Effect::probe_baselines): the refit starts there. Empty: calibrated.
+  std::vector<double> base_start;
+  double chi2 = 0;       //!< training chi-square
+  int k = 0;             //!< parameters counted by BIC (continuous + discrete)
+  double lrt = 0;        //!< N ln(chi2_0 / chi2)
+  double delta_bic = 0;  //!< lrt - k ln N (> 0 favours the effect)
   double rms = 0, heldout_rms = 0;
   double heldout_chi2 = 0;  //!< noise-weighted, over every held-out channel (any unit)
   bool passes = false;
