@@ -381,10 +381,11 @@ TEST(DiagnoseScreening, AnotherLawIsAlsoProbedAtTheDecksNuWhereTheCalibrationCar
 }
 
 TEST(DiagnoseModel, VectorKernelIsTheScalarElementLoopBitForBit) {
-  // StVK's internal forces and element tangents run with the Gauss points as vector lanes
-  // (ElementKernel.cpp); every run must give the scalar element loop's bits: the plain case,
-  // a large pluck (tangent rebuilds) in a soft region with stiffness damping, relaxation and
-  // mass damping, and the trilinear element.
+  // The internal forces (StVK, Neo-Hookean, corotated) and StVK's element tangents run with
+  // the Gauss points as vector lanes (ElementKernel.cpp); every run must give the scalar
+  // element loop's bits, under each law: the plain case, a large pluck (tangent rebuilds) in a
+  // soft region with stiffness damping, relaxation and mass damping, and the trilinear
+  // element.
   const VoxelModel vec(deck());
   VoxelModel scalar(deck());
   scalar.set_vector_kernels(false);
@@ -406,17 +407,20 @@ TEST(DiagnoseModel, VectorKernelIsTheScalarElementLoopBitForBit) {
   const std::string best = element_kernel_isa();
   for (const std::string& isa : element_kernel_isas()) {  // each build this CPU runs
     set_element_kernel_isa(isa);
-    for (const Physics& p : {base, big, tri}) {
-      const Trace a = vec.run(p, r), b = scalar.run(p, r);
-      ASSERT_TRUE(a.ok && b.ok) << a.failure << b.failure;
-      EXPECT_GT(a.factorizations, 1);  // the tangent kernel ran
-      EXPECT_EQ(a.newton_iterations, b.newton_iterations) << isa;
-      EXPECT_EQ(a.factorizations, b.factorizations) << isa;
-      EXPECT_EQ(a.max_mises, b.max_mises) << isa;
-      for (std::size_t c = 0; c < r.size(); ++c)
-        for (std::size_t k = 0; k < a.channel[c].size(); ++k)
-          ASSERT_EQ(a.channel[c][k], b.channel[c][k]) << isa << " channel " << c << " value " << k;
-    }
+    for (const char* law : {"stvk", "neo_hookean", "corotated"})
+      for (Physics p : {base, big, tri}) {
+        p.law = law;
+        const Trace a = vec.run(p, r), b = scalar.run(p, r);
+        ASSERT_TRUE(a.ok && b.ok) << a.failure << b.failure;
+        EXPECT_GT(a.factorizations, 1);  // the tangent kernel ran
+        EXPECT_EQ(a.newton_iterations, b.newton_iterations) << isa << " " << law;
+        EXPECT_EQ(a.factorizations, b.factorizations) << isa << " " << law;
+        EXPECT_EQ(a.max_mises, b.max_mises) << isa << " " << law;
+        for (std::size_t c = 0; c < r.size(); ++c)
+          for (std::size_t k = 0; k < a.channel[c].size(); ++k)
+            ASSERT_EQ(a.channel[c][k], b.channel[c][k])
+                << isa << " " << law << " channel " << c << " value " << k;
+      }
   }
   set_element_kernel_isa(best);
   EXPECT_THROW(set_element_kernel_isa("sse9"), std::invalid_argument);

@@ -7,16 +7,18 @@
 //              (one internal-force pass and one back-substitution);
 //   nominal    the case itself (8 cm tip motion: large rotations, a refreshed tangent);
 //   damping    with Rayleigh stiffness damping (beta = 2e-3 s), as the fits run it;
-//   corotated  the case with the fixed-corotated law (one SVD per stress);
+//   neo_hookean the case with the Neo-Hookean law;
+//   corotated  the case with the fixed-corotated law (a polar decomposition per stress);
 //   plastic    with von Mises plasticity (yield 10 kPa, hardening 20 kPa), the slowest law.
 // Per run: wall seconds, steps, Newton iterations per step, factorizations, steps redone
 // with fresh tangents (restarts), and the split
 // over phases (internal forces, tangent, factorization, back-substitution, rest). Each run
 // is timed twice: with the model's element (incompatible modes, half-consistent mass) and,
 // as the baseline in the same process, with the plain trilinear element and lumped masses
-// ("trilinear"), with the cost ratio of the two. The StVK elastic runs are timed a third
-// time in the scalar element loop ("scalar_element_loop"), the baseline of the vector
-// kernel, with whether the two runs agree bit for bit.
+// ("trilinear"), with the cost ratio of the two. The elastic runs under the laws the vector
+// kernel has (StVK, Neo-Hookean, corotated) are timed a third time in the scalar element
+// loop ("scalar_element_loop"), the baseline of the vector kernel, with whether the two runs
+// agree bit for bit.
 // --voxel-size 0.005 times the model of diagnose's discretisation check (h/2: 8x the voxels),
 // --newton-tolerance another Newton stop (diagnose's check runs its h/2 model at 1e-4),
 // --refresh-contraction another rule for rebuilding the lagged tangent (a correction that
@@ -124,7 +126,8 @@ int main(int argc, char** argv) {
                        "instruction set of the element kernel and LDL^T (default: the best)")
             ->check(CLI::IsMember(diagnose::element_kernel_isas()));
         app.add_option("--case", only, "only this run")
-            ->check(CLI::IsMember({"baseline", "nominal", "damping", "corotated", "plastic"}));
+            ->check(CLI::IsMember(
+                {"baseline", "nominal", "damping", "neo_hookean", "corotated", "plastic"}));
       },
       [&]() -> int {
         int rank = 0;
@@ -159,6 +162,8 @@ int main(int argc, char** argv) {
         if (refresh > 0) base.refresh_contraction = nominal.refresh_contraction = refresh;
         diagnose::Physics damped = nominal;
         damped.rayleigh_beta = 2e-3;
+        diagnose::Physics neo = nominal;
+        neo.law = "neo_hookean";
         diagnose::Physics corotated = nominal;
         corotated.law = "corotated";
         diagnose::Physics plastic = nominal;
@@ -169,9 +174,10 @@ int main(int argc, char** argv) {
           p.consistent_mass_fraction = 0;
           return p;
         };
-        constexpr int kRuns = 5;
-        const char* names[kRuns] = {"baseline", "nominal", "damping", "corotated", "plastic"};
-        const diagnose::Physics phys[kRuns] = {base, nominal, damped, corotated, plastic};
+        constexpr int kRuns = 6;
+        const char* names[kRuns] = {"baseline",    "nominal",   "damping",
+                                    "neo_hookean", "corotated", "plastic"};
+        const diagnose::Physics phys[kRuns] = {base, nominal, damped, neo, corotated, plastic};
         diagnose::VoxelModel scalar_model(cfg);
         scalar_model.set_vector_kernels(false);
         std::string runs, old_runs, ratios, scalar_runs;
@@ -180,7 +186,9 @@ int main(int argc, char** argv) {
           if (!only.empty() && only != names[k]) continue;
           const Result r = time_run(names[k], model, phys[k], req, repeat);
           const Result o = time_run(names[k], model, trilinear(phys[k]), req, repeat);
-          if (phys[k].law == "stvk" && !std::isfinite(phys[k].yield_stress)) {
+          const std::string& law = phys[k].law;
+          if ((law == "stvk" || law == "neo_hookean" || law == "corotated") &&
+              !std::isfinite(phys[k].yield_stress)) {
             // The same run in the scalar element loop: the vector kernel's baseline, and
             // whether the two agree bit for bit.
             const Result sr = time_run(names[k], scalar_model, phys[k], req, repeat);

@@ -3,6 +3,7 @@
 #include "diagnose/ElementKernel.hpp"
 
 #include "diagnose/Isa.hpp"
+#include "materials/Svd3.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -51,6 +52,108 @@ GEN4D_ALWAYS_INLINE void lanes_stvk(const Lanes F[9], double m2, double lambda, 
       for (int q = 0; q < kLanes; ++q)
         P[3 * r + c][q] =
             F[3 * r][q] * E[c][q] + F[3 * r + 1][q] * E[3 + c][q] + F[3 * r + 2][q] * E[6 + c][q];
+}
+
+// Cofactor and determinant of each lane's matrix, in the order of materials::cofactor, det.
+GEN4D_ALWAYS_INLINE void lanes_cofactor(const Lanes A[9], Lanes C[9]) {
+  for (int q = 0; q < kLanes; ++q) {
+    C[0][q] = A[4][q] * A[8][q] - A[5][q] * A[7][q];
+    C[1][q] = A[5][q] * A[6][q] - A[3][q] * A[8][q];
+    C[2][q] = A[3][q] * A[7][q] - A[4][q] * A[6][q];
+    C[3][q] = A[2][q] * A[7][q] - A[1][q] * A[8][q];
+    C[4][q] = A[0][q] * A[8][q] - A[2][q] * A[6][q];
+    C[5][q] = A[1][q] * A[6][q] - A[0][q] * A[7][q];
+    C[6][q] = A[1][q] * A[5][q] - A[2][q] * A[4][q];
+    C[7][q] = A[2][q] * A[3][q] - A[0][q] * A[5][q];
+    C[8][q] = A[0][q] * A[4][q] - A[1][q] * A[3][q];
+  }
+}
+GEN4D_ALWAYS_INLINE void lanes_det(const Lanes A[9], Lanes d) {
+  for (int q = 0; q < kLanes; ++q)
+    d[q] = A[0][q] * (A[4][q] * A[8][q] - A[5][q] * A[7][q]) -
+           A[1][q] * (A[3][q] * A[8][q] - A[5][q] * A[6][q]) +
+           A[2][q] * (A[3][q] * A[7][q] - A[4][q] * A[6][q]);
+}
+// sqrt(A : A), summed in materials::frobenius_dot's order.
+GEN4D_ALWAYS_INLINE void lanes_norm(const Lanes A[9], Lanes n) {
+  for (int q = 0; q < kLanes; ++q) {
+    double s = 0;
+    for (int i = 0; i < 9; ++i) s += A[i][q] * A[i][q];
+    n[q] = std::sqrt(s);
+  }
+}
+
+// Neo-Hookean (materials::NeoHookean::pk1):
+// P = mu (1 - 1 / (I_C + 1)) F + (lambda (J - 1) - 3/4 mu) cof F.
+GEN4D_ALWAYS_INLINE void lanes_neo_hookean(const Lanes F[9], double mu, double lambda, Lanes P[9]) {
+  alignas(64) Lanes C[9], J, a, b;
+  lanes_cofactor(F, C);
+  lanes_det(F, J);
+  for (int q = 0; q < kLanes; ++q) {
+    double ic = 0;
+    for (int i = 0; i < 9; ++i) ic += F[i][q] * F[i][q];
+    a[q] = mu * (1.0 - 1.0 / (ic + 1.0));
+    b[q] = lambda * (J[q] - 1.0) - 0.75 * mu;
+  }
+  for (int i = 0; i < 9; ++i)
+    for (int q = 0; q < kLanes; ++q) P[i][q] = a[q] * F[i][q] + b[q] * C[i][q];
+}
+
+// Fixed corotated (materials::FixedCorotated::pk1): P = 2 mu (F - R) + lambda (J - 1) cof F,
+// R the rotation of F = R S by Higham's scaled Newton iteration as
+// materials::polar_rotation_newton runs it, every lane to its own convergence (a settled
+// lane keeps its value while the others iterate), and the signed SVD's rotation
+// (materials::polar_rotation) in a lane where that iteration declines, as the scalar loop
+// falls back.
+GEN4D_ALWAYS_INLINE void lanes_corotated(const Lanes F[9], double mu, double lambda, Lanes P[9]) {
+  alignas(64) Lanes X[9], Xn[9], C[9], d, nX, nC, g, change, act, J;
+  lanes_det(F, J);
+  lanes_norm(F, nX);
+  bool any = false;
+  for (int q = 0; q < kLanes; ++q) {
+    act[q] = J[q] > 1e-6 * nX[q] * nX[q] * nX[q] ? 1.0 : 0.0;
+    any = any || act[q] != 0;
+  }
+  double ok[kLanes] = {};
+  for (int i = 0; i < 9; ++i)
+    for (int q = 0; q < kLanes; ++q) X[i][q] = F[i][q];
+  for (int it = 0; it < 30 && any; ++it) {
+    lanes_cofactor(X, C);
+    lanes_det(X, d);
+    lanes_norm(C, nC);
+    lanes_norm(X, nX);
+    for (int q = 0; q < kLanes; ++q) g[q] = std::sqrt(nC[q] / (d[q] * nX[q]));
+    for (int i = 0; i < 9; ++i)
+      for (int q = 0; q < kLanes; ++q)
+        Xn[i][q] = (0.5 * g[q]) * X[i][q] + (0.5 / (g[q] * d[q])) * C[i][q];
+    for (int q = 0; q < kLanes; ++q) {
+      double s = 0;
+      for (int i = 0; i < 9; ++i) {
+        const double e = Xn[i][q] - X[i][q];
+        s += e * e;
+      }
+      change[q] = std::sqrt(s);
+    }
+    any = false;
+    for (int i = 0; i < 9; ++i)
+      for (int q = 0; q < kLanes; ++q) X[i][q] = act[q] != 0 ? Xn[i][q] : X[i][q];
+    for (int q = 0; q < kLanes; ++q) {
+      if (act[q] != 0 && change[q] <= 1e-14) act[q] = 0, ok[q] = 1;
+      any = any || act[q] != 0;
+    }
+  }
+  for (int q = 0; q < kLanes; ++q)
+    if (ok[q] == 0) {
+      materials::Mat3 Fq;
+      for (int i = 0; i < 9; ++i) Fq.a[i] = F[i][q];
+      const materials::Mat3 R = materials::polar_rotation(Fq);
+      for (int i = 0; i < 9; ++i) X[i][q] = R.a[i];
+    }
+  lanes_cofactor(F, C);
+  const double m2 = 2.0 * mu;
+  for (int q = 0; q < kLanes; ++q) d[q] = lambda * (J[q] - 1.0);
+  for (int i = 0; i < 9; ++i)
+    for (int q = 0; q < kLanes; ++q) P[i][q] = m2 * (F[i][q] - X[i][q]) + d[q] * C[i][q];
 }
 
 GEN4D_ALWAYS_INLINE void tangent_body(const StvkTangent& t, const double x[kShapes][3], double w,
@@ -142,7 +245,16 @@ GEN4D_ALWAYS_INLINE void force_pass_body(const StvkForcePass& p) {
       }
     alignas(64) Lanes F[9], P[9], tr;
     lanes_grad(G, xe, F);
-    lanes_stvk(F, m2, p.lambda, P);
+    switch (p.law) {
+      case ElasticLaw::NeoHookean:
+        lanes_neo_hookean(F, p.mu, p.lambda, P);
+        break;
+      case ElasticLaw::Corotated:
+        lanes_corotated(F, p.mu, p.lambda, P);
+        break;
+      default:
+        lanes_stvk(F, m2, p.lambda, P);
+    }
     if (p.q) {
       // Relaxing part: dq/dt = (g P_el - q) / tau (backward Euler); stress P_el - q.
       for (int q = 0; q < kLanes; ++q) {

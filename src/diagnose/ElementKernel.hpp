@@ -34,9 +34,16 @@ inline double mises(const double tau[9]) {
   return std::sqrt(1.5 * s2);
 }
 
-//! One internal-force pass over the voxels (StVK; optional one-term Prony relaxation and
-//! Kelvin-Voigt stiffness damping).
+//! The elastic laws the force pass has in lanes, each the arithmetic of its materials::
+//! pk1, operation for operation (corotated: with the rotation of
+//! materials::polar_rotation_newton, the signed SVD's where that declines, as the scalar
+//! element loop takes it).
+enum class ElasticLaw { StVK, NeoHookean, Corotated };
+
+//! One internal-force pass over the voxels (an elastic law; optional one-term Prony
+//! relaxation and Kelvin-Voigt stiffness damping).
 struct StvkForcePass {
+  ElasticLaw law = ElasticLaw::StVK;
   std::size_t voxels = 0;
   const std::array<int, 8>* vox_node = nullptr;  //!< corner nodes per voxel
   const std::array<double, 3>* X = nullptr;      //!< rest positions per node

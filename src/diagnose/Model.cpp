@@ -712,17 +712,25 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   const bool kelvin_voigt = ph.rayleigh_beta != 0;
   // with_mises: also the step's largest von Mises stress (a diagnostic that scales the yield
   // probes: taken once per step, at the predictor, not on every Newton iterate).
-  // The StVK law's elastic passes run in the vector kernel (ElementKernel.hpp: the same
-  // arithmetic, the Gauss points as lanes).
-  bool vector_pass = false;
+  // The elastic passes of the StVK, Neo-Hookean and corotated laws run in the vector kernel
+  // (ElementKernel.hpp: the same arithmetic, the Gauss points as lanes); the StVK law's
+  // element tangents too (the others' stay in the scalar loop: the tangent is rebuilt rarely).
+  constexpr bool kStvk = std::is_same_v<Law, materials::StVK>;
+  constexpr bool kLaneLaw = kStvk || std::is_same_v<Law, materials::NeoHookean> ||
+                            std::is_same_v<Law, materials::FixedCorotated>;
+  bool vector_pass = false, vector_tangent = false;
   StvkForcePass pass;
   StvkTangent vtangent;
   alignas(64) double Gl[kShapes][3][8];
-  if constexpr (std::is_same_v<Law, materials::StVK>) {
+  if constexpr (kLaneLaw) {
     vector_pass = vector_kernels_ && !plastic;
+    vector_tangent = vector_pass && kStvk;
     for (int q = 0; q < 8; ++q)
       for (int l = 0; l < kShapes; ++l)
         for (int c = 0; c < 3; ++c) Gl[l][c][q] = G[q][l][c];
+    pass.law = kStvk                                        ? ElasticLaw::StVK
+               : std::is_same_v<Law, materials::NeoHookean> ? ElasticLaw::NeoHookean
+                                                            : ElasticLaw::Corotated;
     pass.voxels = nv;
     pass.vox_node = vox_node_.data();
     pass.X = X_.data();
@@ -917,7 +925,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
           xe[8 + i / 3][i % 3] = al1[9 * vx + static_cast<std::size_t>(i)];
       ElemMat Ke;
       const double w = h / 8.0 * vfac[vx] * vscale;  // h^3 / 8 * (1/h)^2
-      if (vector_pass)
+      if (vector_tangent)
         stvk_element_tangent(vtangent, xe, w, Ke.data());
       else
         element_tangent(vx, xe, w, Ke);
