@@ -169,8 +169,13 @@ GEN4D_ALWAYS_INLINE void tangent_body(const StvkTangent& t, const double x[kShap
     for (int i = 0; i < 9; ++i)
       for (int q = 0; q < kLanes; ++q) Fp[i][q] = Fm[i][q] = F[i][q];
     for (int q = 0; q < kLanes; ++q) Fp[j][q] += eps, Fm[j][q] -= eps;
-    lanes_stvk(Fp, m2, t.lambda, Pp);
-    lanes_stvk(Fm, m2, t.lambda, Pm);
+    if (t.law == ElasticLaw::NeoHookean) {
+      lanes_neo_hookean(Fp, t.mu, t.lambda, Pp);
+      lanes_neo_hookean(Fm, t.mu, t.lambda, Pm);
+    } else {
+      lanes_stvk(Fp, m2, t.lambda, Pp);
+      lanes_stvk(Fm, m2, t.lambda, Pm);
+    }
     for (int i = 0; i < 9; ++i)
       for (int q = 0; q < kLanes; ++q) D[i][j][q] = (Pp[i][q] - Pm[i][q]) / (2 * eps);
   }

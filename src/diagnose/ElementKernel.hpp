@@ -1,6 +1,6 @@
-//! The hot loops of the diagnose forward model, the internal forces and element tangents of
-//! the voxels under the Saint Venant-Kirchhoff law, with the 8 Gauss points of a voxel as the
-//! lanes of one vector.
+//! The hot loops of the diagnose forward model, the internal forces (Saint Venant-Kirchhoff,
+//! Neo-Hookean and corotated laws) and element tangents (the first two) of the voxels, with the
+//! 8 Gauss points of a voxel as the lanes of one vector.
 //!
 //! Each lane does the scalar element's arithmetic operation for operation, in the same order
 //! (F = sum_l x_l (x) grad N_l, the law, the viscous parts, the region factor, the scatter),
@@ -72,11 +72,12 @@ struct StvkForcePass {
 //! Runs the pass (with the instruction set in use).
 void stvk_force_pass(const StvkForcePass& p);
 
-//! The element tangent of one voxel under StVK (elastic): dP/dF by central differences of
-//! the stress at the 8 Gauss points as lanes, then Ke = w sum_q B_q^T sym(D_q) B_q over the
-//! first `shapes` shape functions, as the scalar element loop computes it.
+//! The element tangent of one voxel under StVK or Neo-Hookean (elastic): dP/dF by central
+//! differences of the stress at the 8 Gauss points as lanes, then Ke = w sum_q B_q^T sym(D_q) B_q
+//! over the first `shapes` shape functions, as the scalar element loop computes it.
 struct StvkTangent {
-  const double (*G)[3][8] = nullptr;         //!< gradients (1/m) by shape, axis, Gauss point
+  ElasticLaw law = ElasticLaw::StVK;  //!< StVK or Neo-Hookean (the laws without an analytic dP/dF)
+  const double (*G)[3][8] = nullptr;  //!< gradients (1/m) by shape, axis, Gauss point
   const double (*dN)[kShapes][3] = nullptr;  //!< unit-cube gradients by Gauss point [8]
   double mu = 0, lambda = 0;
   double eps = 1e-6;  //!< the central difference's step in F

@@ -713,8 +713,9 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   // with_mises: also the step's largest von Mises stress (a diagnostic that scales the yield
   // probes: taken once per step, at the predictor, not on every Newton iterate).
   // The elastic passes of the StVK, Neo-Hookean and corotated laws run in the vector kernel
-  // (ElementKernel.hpp: the same arithmetic, the Gauss points as lanes); the StVK law's
-  // element tangents too (the others' stay in the scalar loop: the tangent is rebuilt rarely).
+  // (ElementKernel.hpp: the same arithmetic, the Gauss points as lanes); so do the element
+  // tangents by central differences of the first two (the corotated law's analytic one stays
+  // in the scalar loop).
   constexpr bool kStvk = std::is_same_v<Law, materials::StVK>;
   constexpr bool kLaneLaw = kStvk || std::is_same_v<Law, materials::NeoHookean> ||
                             std::is_same_v<Law, materials::FixedCorotated>;
@@ -724,7 +725,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   alignas(64) double Gl[kShapes][3][8];
   if constexpr (kLaneLaw) {
     vector_pass = vector_kernels_ && !plastic;
-    vector_tangent = vector_pass && kStvk;
+    vector_tangent = vector_pass && !HasPk1Jacobian<Law>::value;
     for (int q = 0; q < 8; ++q)
       for (int l = 0; l < kShapes; ++l)
         for (int c = 0; c < 3; ++c) Gl[l][c][q] = G[q][l][c];
@@ -744,6 +745,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     pass.kv_lambda = lambda0;
     pass.prony_rate = rv;
     pass.prony_rate_g = rv * ph.prony_g;
+    vtangent.law = pass.law;
     vtangent.G = Gl;
     vtangent.dN = S.dN;
     vtangent.mu = law.mu;
