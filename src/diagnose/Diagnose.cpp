@@ -1316,6 +1316,12 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       std::vector<std::size_t> matched_region;
       std::size_t n_crossing = 0;             // matched starts at ratio crossings (the first ones)
       std::vector<Prediction> crossing_runs;  // their runs, made for the gate below
+      // Crossing starts the gate turned away: they join the grid starts' race as lanes of
+      // their own (in phase on two modes, a start in the true region can still fit worse than
+      // the calibration before its fit, where the higher modes are out of phase: an L
+      // bracket's soft block, whose crossing start fits to the truth in 3 iterations).
+      std::vector<std::vector<double>> race_crossings;
+      std::vector<std::size_t> race_crossing_region;
       if (two_modes) {
         std::vector<Crossing> cand;
         std::vector<std::size_t> cand_region;
@@ -1391,6 +1397,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
                 "  {} ratio starts: the best fits chi2 {:.4g} of the calibrated {:.4g} (needs < "
                 "{:g}x): the grid starts race instead",
                 c.effect, best_c, chi2_0, kRatioStartShare);
+            race_crossings = std::move(matched);
+            race_crossing_region = std::move(matched_region);
             matched.clear();
             matched_region.clear();
           } else {
@@ -1490,6 +1498,10 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         // follows the path it had in the full race, bit for bit.
         std::vector<std::vector<double>> z_lane;
         for (std::size_t ri : ro) z_lane.push_back(region_z[ri]);
+        for (std::size_t q = 0; q < race_crossings.size(); ++q) {
+          ro.push_back(race_crossing_region[q]);
+          z_lane.push_back(race_crossings[q]);
+        }
         std::vector<double> rest = windows;
         if (windows.size() >= 2 && ro.size() > kRaceKeep) {
           std::vector<double> chi_w1(ro.size(), 1e300);
