@@ -74,25 +74,27 @@ GEN4D_ALWAYS_INLINE void lanes_det(const Lanes A[9], Lanes d) {
            A[1][q] * (A[3][q] * A[8][q] - A[5][q] * A[6][q]) +
            A[2][q] * (A[3][q] * A[7][q] - A[4][q] * A[6][q]);
 }
-// sqrt(A : A), summed in materials::frobenius_dot's order.
-GEN4D_ALWAYS_INLINE void lanes_norm(const Lanes A[9], Lanes n) {
+// A : A, summed in materials::frobenius_dot's order, and its square root.
+GEN4D_ALWAYS_INLINE void lanes_sqnorm(const Lanes A[9], Lanes s) {
   for (int q = 0; q < kLanes; ++q) {
-    double s = 0;
-    for (int i = 0; i < 9; ++i) s += A[i][q] * A[i][q];
-    n[q] = std::sqrt(s);
+    s[q] = 0;
+    for (int i = 0; i < 9; ++i) s[q] += A[i][q] * A[i][q];
   }
+}
+GEN4D_ALWAYS_INLINE void lanes_norm(const Lanes A[9], Lanes n) {
+  lanes_sqnorm(A, n);
+  for (int q = 0; q < kLanes; ++q) n[q] = std::sqrt(n[q]);
 }
 
 // Neo-Hookean (materials::NeoHookean::pk1):
 // P = mu (1 - 1 / (I_C + 1)) F + (lambda (J - 1) - 3/4 mu) cof F.
 GEN4D_ALWAYS_INLINE void lanes_neo_hookean(const Lanes F[9], double mu, double lambda, Lanes P[9]) {
-  alignas(64) Lanes C[9], J, a, b;
+  alignas(64) Lanes C[9], J, ic, a, b;
   lanes_cofactor(F, C);
   lanes_det(F, J);
+  lanes_sqnorm(F, ic);
   for (int q = 0; q < kLanes; ++q) {
-    double ic = 0;
-    for (int i = 0; i < 9; ++i) ic += F[i][q] * F[i][q];
-    a[q] = mu * (1.0 - 1.0 / (ic + 1.0));
+    a[q] = mu * (1.0 - 1.0 / (ic[q] + 1.0));
     b[q] = lambda * (J[q] - 1.0) - 0.75 * mu;
   }
   for (int i = 0; i < 9; ++i)
@@ -124,16 +126,11 @@ GEN4D_ALWAYS_INLINE void lanes_corotated(const Lanes F[9], double mu, double lam
     lanes_norm(X, nX);
     for (int q = 0; q < kLanes; ++q) g[q] = std::sqrt(nC[q] / (d[q] * nX[q]));
     for (int i = 0; i < 9; ++i)
-      for (int q = 0; q < kLanes; ++q)
+      for (int q = 0; q < kLanes; ++q) {
         Xn[i][q] = (0.5 * g[q]) * X[i][q] + (0.5 / (g[q] * d[q])) * C[i][q];
-    for (int q = 0; q < kLanes; ++q) {
-      double s = 0;
-      for (int i = 0; i < 9; ++i) {
-        const double e = Xn[i][q] - X[i][q];
-        s += e * e;
+        C[i][q] = Xn[i][q] - X[i][q];  // the step (C is not needed again this iteration)
       }
-      change[q] = std::sqrt(s);
-    }
+    lanes_norm(C, change);
     any = false;
     for (int i = 0; i < 9; ++i)
       for (int q = 0; q < kLanes; ++q) X[i][q] = act[q] != 0 ? Xn[i][q] : X[i][q];
@@ -156,7 +153,7 @@ GEN4D_ALWAYS_INLINE void lanes_corotated(const Lanes F[9], double mu, double lam
     for (int q = 0; q < kLanes; ++q) P[i][q] = m2 * (F[i][q] - X[i][q]) + d[q] * C[i][q];
 }
 
-GEN4D_ALWAYS_INLINE void tangent_body(const StvkTangent& t, const double x[kShapes][3], double w,
+GEN4D_ALWAYS_INLINE void tangent_body(const ElasticTangent& t, const double x[kShapes][3], double w,
                                       double* Ke) {
   constexpr int n = 3 * kShapes;
   const double m2 = 2.0 * t.mu;
@@ -222,7 +219,7 @@ GEN4D_ALWAYS_INLINE void tangent_body(const StvkTangent& t, const double x[kShap
     for (int i = j + 1; i < nd; ++i) Ke[i + n * j] = Ke[j + n * i];
 }
 
-GEN4D_ALWAYS_INLINE void force_pass_body(const StvkForcePass& p) {
+GEN4D_ALWAYS_INLINE void force_pass_body(const ElasticForcePass& p) {
   const bool bubbles = p.alpha != nullptr;
   const bool kv = p.kv_beta != 0;
   const double m2 = 2.0 * p.mu;
@@ -385,10 +382,10 @@ GEN4D_ALWAYS_INLINE void bubble_times_body(const double* A, const double* x, dou
 }
 
 // One entry point per instruction set, each the same source.
-void force_pass_baseline(const StvkForcePass& p) {
+void force_pass_baseline(const ElasticForcePass& p) {
   force_pass_body(p);
 }
-void tangent_baseline(const StvkTangent& t, const double x[kShapes][3], double w, double* Ke) {
+void tangent_baseline(const ElasticTangent& t, const double x[kShapes][3], double w, double* Ke) {
   tangent_body(t, x, w, Ke);
 }
 void bubble_lt_baseline(const double* Lt, const double* r, double* out) {
@@ -401,11 +398,12 @@ void bubble_k_baseline(const double* K, const double* x, double s, double* out) 
   bubble_times_body<9, false>(K, x, s, out);
 }
 #if GEN4D_X86_ISAS
-__attribute__((target("avx2"))) void force_pass_avx2(const StvkForcePass& p) {
+__attribute__((target("avx2"))) void force_pass_avx2(const ElasticForcePass& p) {
   force_pass_body(p);
 }
-__attribute__((target("avx2"))) void tangent_avx2(const StvkTangent& t, const double x[kShapes][3],
-                                                  double w, double* Ke) {
+__attribute__((target("avx2"))) void tangent_avx2(const ElasticTangent& t,
+                                                  const double x[kShapes][3], double w,
+                                                  double* Ke) {
   tangent_body(t, x, w, Ke);
 }
 __attribute__((target("avx2"))) void bubble_lt_avx2(const double* Lt, const double* r,
@@ -420,10 +418,10 @@ __attribute__((target("avx2"))) void bubble_k_avx2(const double* K, const double
                                                    double* out) {
   bubble_times_body<9, true>(K, x, s, out);
 }
-__attribute__((target("avx512f"))) void force_pass_avx512(const StvkForcePass& p) {
+__attribute__((target("avx512f"))) void force_pass_avx512(const ElasticForcePass& p) {
   force_pass_body(p);
 }
-__attribute__((target("avx512f"))) void tangent_avx512(const StvkTangent& t,
+__attribute__((target("avx512f"))) void tangent_avx512(const ElasticTangent& t,
                                                        const double x[kShapes][3], double w,
                                                        double* Ke) {
   tangent_body(t, x, w, Ke);
@@ -432,8 +430,8 @@ __attribute__((target("avx512f"))) void tangent_avx512(const StvkTangent& t,
 
 struct Kernels {
   const char* isa;
-  void (*force_pass)(const StvkForcePass&);
-  void (*tangent)(const StvkTangent&, const double[kShapes][3], double, double*);
+  void (*force_pass)(const ElasticForcePass&);
+  void (*tangent)(const ElasticTangent&, const double[kShapes][3], double, double*);
   void (*bubble_lt)(const double*, const double*, double*);
   void (*bubble_l)(const double*, const double*, double, double*);
   void (*bubble_k)(const double*, const double*, double, double*);
@@ -460,11 +458,12 @@ IsaDispatch<Kernels> g_kernels({&kBaseline}, "element kernel");
 
 }  // namespace
 
-void stvk_force_pass(const StvkForcePass& p) {
+void elastic_force_pass(const ElasticForcePass& p) {
   g_kernels->force_pass(p);
 }
 
-void stvk_element_tangent(const StvkTangent& t, const double x[kShapes][3], double w, double* Ke) {
+void elastic_element_tangent(const ElasticTangent& t, const double x[kShapes][3], double w,
+                             double* Ke) {
   g_kernels->tangent(t, x, w, Ke);
 }
 

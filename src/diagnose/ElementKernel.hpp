@@ -42,7 +42,7 @@ enum class ElasticLaw { StVK, NeoHookean, Corotated };
 
 //! One internal-force pass over the voxels (an elastic law; optional one-term Prony
 //! relaxation and Kelvin-Voigt stiffness damping).
-struct StvkForcePass {
+struct ElasticForcePass {
   ElasticLaw law = ElasticLaw::StVK;
   std::size_t voxels = 0;
   const std::array<int, 8>* vox_node = nullptr;  //!< corner nodes per voxel
@@ -70,12 +70,12 @@ struct StvkForcePass {
 };
 
 //! Runs the pass (with the instruction set in use).
-void stvk_force_pass(const StvkForcePass& p);
+void elastic_force_pass(const ElasticForcePass& p);
 
 //! The element tangent of one voxel under StVK or Neo-Hookean (elastic): dP/dF by central
 //! differences of the stress at the 8 Gauss points as lanes, then Ke = w sum_q B_q^T sym(D_q) B_q
 //! over the first `shapes` shape functions, as the scalar element loop computes it.
-struct StvkTangent {
+struct ElasticTangent {
   ElasticLaw law = ElasticLaw::StVK;  //!< StVK or Neo-Hookean (the laws without an analytic dP/dF)
   const double (*G)[3][8] = nullptr;  //!< gradients (1/m) by shape, axis, Gauss point
   const double (*dN)[kShapes][3] = nullptr;  //!< unit-cube gradients by Gauss point [8]
@@ -85,7 +85,8 @@ struct StvkTangent {
 };
 //! x: the element's current positions (and bubble amplitudes); w: h/8 times the voxel's
 //! factors; Ke: out, the 3 kShapes square matrix, column-major.
-void stvk_element_tangent(const StvkTangent& t, const double x[kShapes][3], double w, double* Ke);
+void elastic_element_tangent(const ElasticTangent& t, const double x[kShapes][3], double w,
+                             double* Ke);
 
 //! The incompatible element's condensed bubbles, per voxel and Newton iteration: with the
 //! bubble block's inverse Kinv (9x9) and L = Kinv K_ab (9x24), both column-major,

@@ -720,8 +720,8 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   constexpr bool kLaneLaw = kStvk || std::is_same_v<Law, materials::NeoHookean> ||
                             std::is_same_v<Law, materials::FixedCorotated>;
   bool vector_pass = false, vector_tangent = false;
-  StvkForcePass pass;
-  StvkTangent vtangent;
+  ElasticForcePass pass;
+  ElasticTangent vtangent;
   alignas(64) double Gl[kShapes][3][8];
   if constexpr (kLaneLaw) {
     vector_pass = vector_kernels_ && !plastic;
@@ -766,7 +766,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
       pass.max_mises = with_mises ? &step_max_mises : nullptr;
       pass.fint = fint.data();
       pass.ral = ral.data();
-      stvk_force_pass(pass);
+      elastic_force_pass(pass);
       return true;
     }
     for (std::size_t vx = 0; vx < nv; ++vx) {
@@ -928,7 +928,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
       ElemMat Ke;
       const double w = h / 8.0 * vfac[vx] * vscale;  // h^3 / 8 * (1/h)^2
       if (vector_tangent)
-        stvk_element_tangent(vtangent, xe, w, Ke.data());
+        elastic_element_tangent(vtangent, xe, w, Ke.data());
       else
         element_tangent(vx, xe, w, Ke);
       if (bubbles) {
