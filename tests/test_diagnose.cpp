@@ -110,6 +110,40 @@ double first_mode_omega(const Trace& tr, const std::vector<ChannelRequest>& r) {
   return 2 * M_PI * static_cast<double>(up.size() - 1) / (up.back() - up.front());
 }
 
+//! Marker channels at `markers` (ids prefix + index) with the run's positions plus Gaussian
+//! noise of sd `sd` (seeded), drawn x, y, z per sample.
+Recording noisy_markers(const std::vector<Vec3d>& markers, const std::vector<ChannelRequest>& req,
+                        const Trace& tr, double sd, unsigned seed, const std::string& prefix) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0, sd);
+  Recording rec;
+  for (std::size_t c = 0; c < req.size(); ++c) {
+    Channel ch;
+    ch.kind = ChannelKind::Position;
+    ch.id = prefix + std::to_string(c);
+    ch.X = {markers[c][0], markers[c][1], markers[c][2]};
+    for (std::size_t k = 0; k < req[c].t.size(); ++k) {
+      ch.t.push_back(req[c].t[k]);
+      ch.value.push_back({tr.channel[c][3 * k] + noise(rng), tr.channel[c][3 * k + 1] + noise(rng),
+                          tr.channel[c][3 * k + 2] + noise(rng)});
+    }
+    rec.channels.push_back(ch);
+  }
+  return rec;
+}
+
+//! Writes rec as dir/rec.csv on rank 0 (dir made afresh); every rank waits for it.
+void write_fresh_recording(const Recording& rec, const std::string& dir) {
+  int rank = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  if (rank == 0) {
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    write_recording_csv(rec, dir + "/rec.csv");
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+}
+
 //! The values of a run as observations of obs.requests, all fitted, noise 1e-5 m.
 void add_noiseless(Observations& obs, const Trace& tr) {
   for (std::size_t c = 0; c < obs.requests.size(); ++c)
@@ -1328,29 +1362,8 @@ std::string diagnose_l_bracket(const VoxelModel& m, const Config& cfg, const Phy
   const Trace tr = m.run(truth, req);
   EXPECT_TRUE(tr.ok) << tr.failure;
   if (!tr.ok) return "";
-  std::mt19937 rng(5);
-  std::normal_distribution<double> noise(0, 1);
-  Recording rec;
-  for (std::size_t c = 0; c < req.size(); ++c) {
-    Channel ch;
-    ch.kind = ChannelKind::Position;
-    ch.id = "m" + std::to_string(c);
-    ch.X = {markers[c][0], markers[c][1], markers[c][2]};
-    for (std::size_t k = 0; k < req[c].t.size(); ++k) {
-      ch.t.push_back(req[c].t[k]);
-      std::array<double, 3> v{};
-      for (int d = 0; d < 3; ++d) v[d] = tr.channel[c][3 * k + d] + 1e-5 * noise(rng);
-      ch.value.push_back(v);
-    }
-    rec.channels.push_back(ch);
-  }
   const std::string dir = "diagnose_lbracket_" + tag + "_np" + std::to_string(size);
-  if (rank == 0) {
-    std::filesystem::remove_all(dir);
-    std::filesystem::create_directories(dir);
-    write_recording_csv(rec, dir + "/rec.csv");
-  }
-  MPI_Barrier(MPI_COMM_WORLD);
+  write_fresh_recording(noisy_markers(markers, req, tr, 1e-5, 5, "m"), dir);
   opt.recordings = {dir + "/rec.csv"};
   opt.out_dir = dir + "/out";
   EXPECT_EQ(run_diagnose(MPI_COMM_WORLD, cfg, opt), 0);
@@ -1371,33 +1384,10 @@ TEST(DiagnoseEndToEnd, FindsAGroundTheDeckLeftOutOnDataFromFinerVoxels) {
   // deck's E is 4 % off. The calibration answers the ground with a stiffer body (E +34 %, nu
   // at its bound), under which a plane at the recorded lowest point barely touches: the
   // ground must also be probed on the deck's E and nu to reach the refits.
-  const char* text = R"(
-[simulation]
-name = "ground"
-dt = 0.002
-end_time = 1.0
-gravity = [0, 0, -9.81]
-[domain]
-voxel_size = 0.01
-[[geometry]]
-type = "box"
-lo = [0, 0, 0]
-hi = [0.1, 0.02, 0.02]
-[material]
-model = "stvk"
-youngs_modulus = 2.88e5
-poisson_ratio = 0.3
-density = 1000
-[[fixed]]
-lo = [-1, -1, -1]
-hi = [0.001, 1, 1]
-[[force]]
-lo = [0.095, -1, -1]
-hi = [1, 1, 1]
-force = [0, 0.10, -0.08]
-start = 0
-end = 0.3
-)";
+  std::string text = std::regex_replace(kDeck, std::regex("force = \\[0, 0.02, -0.01\\]"),
+                                        "force = [0, 0.10, -0.08]");
+  text = std::regex_replace(text, std::regex("end = 0.1\n"), "end = 0.3\n");
+  text = std::regex_replace(text, std::regex("youngs_modulus = 3e5"), "youngs_modulus = 2.88e5");
   int rank = 0, size = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &size);
@@ -1422,27 +1412,8 @@ end = 0.3
   }
   const Trace tr = truth_model.run(truth, req);
   ASSERT_TRUE(tr.ok) << tr.failure;
-  std::mt19937 rng(3);
-  std::normal_distribution<double> noise(0, 1e-4);
-  Recording rec;
-  for (std::size_t c = 0; c < req.size(); ++c) {
-    Channel ch;
-    ch.id = std::to_string(c);
-    ch.X = {markers[c][0], markers[c][1], markers[c][2]};
-    for (std::size_t k = 0; k < req[c].t.size(); ++k) {
-      ch.t.push_back(req[c].t[k]);
-      ch.value.push_back({tr.channel[c][3 * k] + noise(rng), tr.channel[c][3 * k + 1] + noise(rng),
-                          tr.channel[c][3 * k + 2] + noise(rng)});
-    }
-    rec.channels.push_back(ch);
-  }
   const std::string dir = "diagnose_ground_np" + std::to_string(size);
-  if (rank == 0) {
-    std::filesystem::remove_all(dir);
-    std::filesystem::create_directories(dir);
-    write_recording_csv(rec, dir + "/rec.csv");
-  }
-  MPI_Barrier(MPI_COMM_WORLD);
+  write_fresh_recording(noisy_markers(markers, req, tr, 1e-4, 3, ""), dir);
 
   // The probe's baseline: the deck's E and nu where the calibration carried them off, none
   // where it did not.
