@@ -110,6 +110,27 @@ double first_mode_omega(const Trace& tr, const std::vector<ChannelRequest>& r) {
   return 2 * M_PI * static_cast<double>(up.size() - 1) / (up.back() - up.front());
 }
 
+//! The whole text of a file (a report.json).
+std::string file_text(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+//! Position requests at `markers`, sampled at k * dt for k = 0..n.
+std::vector<ChannelRequest> marker_requests(const VoxelModel& m, const std::vector<Vec3d>& markers,
+                                            int n, double dt) {
+  std::vector<ChannelRequest> req;
+  for (const Vec3d& X : markers) {
+    ChannelRequest q;
+    q.at = m.attach(X);
+    for (int k = 0; k <= n; ++k) q.t.push_back(dt * k);
+    req.push_back(q);
+  }
+  return req;
+}
+
 //! Marker channels at `markers` (ids prefix + index) with the run's positions plus Gaussian
 //! noise of sd `sd` (seeded), drawn x, y, z per sample.
 Recording noisy_markers(const std::vector<Vec3d>& markers, const std::vector<ChannelRequest>& req,
@@ -1282,10 +1303,7 @@ TEST(DiagnoseEndToEnd, FindsHiddenMassDampingFromMarkersAndAccelerometers) {
   opt.refit = 2;
   EXPECT_EQ(run_diagnose(MPI_COMM_WORLD, cfg, opt), 0);
   if (rank != 0) return;
-  std::ifstream in(opt.out_dir + "/report.json");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  const std::string js = ss.str();
+  const std::string js = file_text(opt.out_dir + "/report.json");
   EXPECT_NE(js.find("\"verdict\": \"missing_physics\""), std::string::npos) << js.substr(0, 400);
   EXPECT_NE(js.find("\"effect\": \"damping\""), std::string::npos) << js.substr(0, 400);
   EXPECT_EQ(js.find("\"noise_estimate_acceleration\": null"), std::string::npos);  // used
@@ -1352,13 +1370,7 @@ std::string diagnose_l_bracket(const VoxelModel& m, const Config& cfg, const Phy
   MPI_Comm_size(MPI_COMM_WORLD, &size);
   const std::vector<Vec3d> markers = {{0.03, 0.02, 0.02}, {0.05, 0.0, 0.02},  {0.08, 0.01, 0.0},
                                       {0.07, 0.04, 0.02}, {0.06, 0.07, 0.01}, {0.08, 0.06, 0.0}};
-  std::vector<ChannelRequest> req;
-  for (const Vec3d& X : markers) {
-    ChannelRequest q;
-    q.at = m.attach(X);
-    for (int k = 0; k <= 160; ++k) q.t.push_back(0.005 * k);
-    req.push_back(q);
-  }
+  const auto req = marker_requests(m, markers, 160, 0.005);
   const Trace tr = m.run(truth, req);
   EXPECT_TRUE(tr.ok) << tr.failure;
   if (!tr.ok) return "";
@@ -1368,10 +1380,7 @@ std::string diagnose_l_bracket(const VoxelModel& m, const Config& cfg, const Phy
   opt.out_dir = dir + "/out";
   EXPECT_EQ(run_diagnose(MPI_COMM_WORLD, cfg, opt), 0);
   if (rank != 0) return "";
-  std::ifstream in(opt.out_dir + "/report.json");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+  return file_text(opt.out_dir + "/report.json");
 }
 
 }  // namespace
@@ -1403,13 +1412,7 @@ TEST(DiagnoseEndToEnd, FindsAGroundTheDeckLeftOutOnDataFromFinerVoxels) {
   truth.ground_friction = 0.4;
   const std::vector<Vec3d> markers = {{0.02, 0.0, 0.0},  {0.04, 0.02, 0.01}, {0.05, 0.01, 0.02},
                                       {0.07, 0.0, 0.02}, {0.09, 0.02, 0.0},  {0.1, 0.01, 0.0}};
-  std::vector<ChannelRequest> req;
-  for (const Vec3d& X : markers) {
-    ChannelRequest q;
-    q.at = truth_model.attach(X);
-    for (int k = 0; k <= 100; ++k) q.t.push_back(0.01 * k);
-    req.push_back(q);
-  }
+  const auto req = marker_requests(truth_model, markers, 100, 0.01);
   const Trace tr = truth_model.run(truth, req);
   ASSERT_TRUE(tr.ok) << tr.failure;
   const std::string dir = "diagnose_ground_np" + std::to_string(size);
@@ -1438,10 +1441,7 @@ TEST(DiagnoseEndToEnd, FindsAGroundTheDeckLeftOutOnDataFromFinerVoxels) {
   opt.effects = {"contact_friction", "heterogeneity", "material_law", "plasticity", "damping"};
   EXPECT_EQ(run_diagnose(MPI_COMM_WORLD, cfg, opt), 0);
   if (rank != 0) return;
-  std::ifstream in(opt.out_dir + "/report.json");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  const std::string js = ss.str();
+  const std::string js = file_text(opt.out_dir + "/report.json");
   EXPECT_NE(js.find("\"verdict\": \"missing_physics\""), std::string::npos) << js.substr(0, 600);
   EXPECT_NE(js.find("\"effect\": \"contact_friction\""), std::string::npos) << js.substr(0, 600);
   std::smatch mt;
