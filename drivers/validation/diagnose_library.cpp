@@ -42,6 +42,7 @@
 #include "core/Deck.hpp"
 #include "core/Error.hpp"
 #include "core/Log.hpp"
+#include "diagnose/Effects.hpp"
 #include "diagnose/Model.hpp"
 #include "diagnose/Recording.hpp"
 #include "validation/DriverCommon.hpp"
@@ -243,15 +244,15 @@ int generate(const Options& o) {
     const unsigned noise_seed = static_cast<unsigned>(rng());
     if (!o.only.empty() && std::find(o.only.begin(), o.only.end(), c.name) == o.only.end())
       continue;
+    // The effect as diagnose's library applies it (the parameters in its order).
     diagnose::Physics ph = nominal;
-    for (const auto& [k, v] : c.params) {
-      if (k == "g") ph.prony_g = v;
-      if (k == "tau") ph.prony_tau = v;
-      if (k == "friction_accel") ph.coulomb_accel = v;
-      if (k == "linear") ph.drag_linear = v;
-      if (k == "quadratic") ph.drag_quadratic = v;
-      if (k == "height") ph.ground = true, ph.ground_height = v;
-      if (k == "friction") ph.ground_friction = v;
+    if (!c.effect.empty()) {
+      diagnose::EffectContext ctx;
+      ctx.model = &model;
+      ctx.base = nominal;
+      std::vector<double> values;
+      for (const auto& kv : c.params) values.push_back(kv.second);
+      diagnose::find_effect(c.effect).apply("", values, ctx, ph);
     }
     log::info("case {}: {}", c.name, c.notes);
     const diagnose::Trace tr = c.effect.empty() ? free : model.run(ph, req);

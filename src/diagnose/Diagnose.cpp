@@ -1493,13 +1493,12 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         std::sort(ro.begin(), ro.end(),
                   [&](std::size_t a, std::size_t b) { return region_chi[a] < region_chi[b]; });
         ro.resize(std::min(ro.size(), kRegionStarts));
-        // Successive halving: every region gets the first window's fit, and the best
-        // kRaceKeep by its chi-square (the same values for all) the rest. A region kept
-        // follows the path it had in the full race, bit for bit. With a single window too: the
-        // rest is then the whole recording (before, every lane was fitted in full there: 15
-        // lanes on the L bracket of the end-to-end tests, 550 runs against 537 now, the same
-        // verdicts and fits).
-        // The lanes are the kRegionStarts regions and the turned-away crossing starts.
+        // Successive halving over the lanes (the kRegionStarts regions and the turned-away
+        // crossing starts): every lane gets the first window's fit, and the best kRaceKeep by
+        // its chi-square (the same values for all) the rest. A lane kept follows the path it
+        // had in the full race, bit for bit. With a single window the rest is the whole
+        // recording (before, every lane was fitted in full there: 15 lanes on the L bracket of
+        // the end-to-end tests, 550 runs against 537 now, the same verdicts and fits).
         std::vector<std::vector<double>> z_lane;
         for (std::size_t ri : ro) z_lane.push_back(region_z[ri]);
         for (std::size_t q = 0; q < race_crossings.size(); ++q) {

@@ -113,6 +113,24 @@ class Plasticity final : public Effect {
   }
 };
 
+//! The calibrated baseline with the deck's nu (and, with_e, the deck's E) in one element,
+//! when the calibration moved nu by more than shift_nu (or, with_e, log E by more than
+//! shift_e); else none. For effects whose probe is poor where the calibration has absorbed
+//! them (Effect::probe_baselines).
+std::vector<Physics> deck_baseline(const EffectContext& c, double shift_nu, bool with_e,
+                                   double shift_e = 0) {
+  if (c.model == nullptr) return {};
+  const Physics deck = c.model->nominal();
+  const bool nu_moved = std::abs(c.base.poisson_ratio - deck.poisson_ratio) > shift_nu;
+  const bool e_moved =
+      with_e && std::abs(std::log(c.base.youngs_modulus / deck.youngs_modulus)) > shift_e;
+  if (!nu_moved && !e_moved) return {};
+  Physics at_deck = c.base;
+  at_deck.poisson_ratio = deck.poisson_ratio;
+  if (with_e) at_deck.youngs_modulus = deck.youngs_modulus;
+  return {at_deck};
+}
+
 //! Another hyperelastic law with the same E and nu.
 class MaterialLaw final : public Effect {
  public:
@@ -139,12 +157,7 @@ class MaterialLaw final : public Effect {
   //! among the effects refitted): when the calibration moved nu by more than
   //! kDeckNuProbeShift, the law is also probed at the deck's nu.
   std::vector<Physics> probe_baselines(const EffectContext& c, const std::string&) const override {
-    if (c.model == nullptr) return {};
-    const double nu_deck = c.model->nominal().poisson_ratio;
-    if (!(std::abs(c.base.poisson_ratio - nu_deck) > kDeckNuProbeShift)) return {};
-    Physics at_deck = c.base;
-    at_deck.poisson_ratio = nu_deck;
-    return {at_deck};
+    return deck_baseline(c, kDeckNuProbeShift, false);
   }
   std::vector<double> null_values(const EffectContext&, const std::string&) const override {
     return {};
@@ -305,15 +318,7 @@ class ContactFriction final : public Effect {
   //! When the calibration moved E by more than kDeckShiftE or nu by more than kDeckShiftNu,
   //! the plane is also probed on the deck's E and nu.
   std::vector<Physics> probe_baselines(const EffectContext& c, const std::string&) const override {
-    if (c.model == nullptr) return {};
-    const Physics deck = c.model->nominal();
-    if (!(std::abs(std::log(c.base.youngs_modulus / deck.youngs_modulus)) > kDeckShiftE ||
-          std::abs(c.base.poisson_ratio - deck.poisson_ratio) > kDeckShiftNu))
-      return {};
-    Physics at_deck = c.base;
-    at_deck.youngs_modulus = deck.youngs_modulus;
-    at_deck.poisson_ratio = deck.poisson_ratio;
-    return {at_deck};
+    return deck_baseline(c, kDeckShiftNu, true, kDeckShiftE);
   }
   static constexpr double kDeckShiftE = 0.15, kDeckShiftNu = 0.05;
   std::vector<double> null_values(const EffectContext& c, const std::string&) const override {
