@@ -323,9 +323,14 @@ std::string markdown(const Diagnosis& d) {
        "means over 10 samples), or whose held-out chi-square exceeds the winner's by less than "
        "the misfit the winner leaves beyond the noise (a difference below the model "
        "discrepancy both carry), makes the verdict ambiguous.";
-  if (std::isfinite(d.vuong_z))
+  if (std::isfinite(d.vuong_z) && std::isfinite(d.runner_up_gap))
     m << fmt::format(" Here z = {:.2f} and the gap is {:.3g} x the unexplained misfit, against {}.",
                      d.vuong_z, d.runner_up_gap, d.runner_up);
+  else if (std::isfinite(d.vuong_z))
+    m << fmt::format(
+        " Here z = {:.2f} against {}, and the winner leaves no misfit beyond the "
+        "noise.",
+        d.vuong_z, d.runner_up);
   m << "\n\n";
   m << fmt::format(
       "Cost: {} forward runs ({} more asked for again and taken from the memo), {:.1f} s of "
