@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Blind recordings for `gen4d diagnose`, made with CalculiX, and their scoring.
 
-    diagnose_blind.py generate --out DIR --set small|full [--seed S] [--ccx ccx]
+    diagnose_blind.py generate --out DIR --set small|full|plate [--seed S] [--ccx ccx]
     diagnose_blind.py score --cases DIR --gen4d PATH/TO/gen4d [--np 1]
                             [--json score.json] [--only CASE ...]
 
@@ -27,7 +27,10 @@ about 25 s per case (C3D20R, one core); `full` (18 cases: 4 none, 2 per
 effect; 20x4x4 voxels, 2 s) takes about 8 CPU minutes per C3D20R ccx run
 (5400 equations, 1000 increments, two Newton iterations each; ccx's spooles
 gains nothing from a second thread here), plus the reference runs of
-plasticity and material_law: about 3 hours on one core.  `--element C3D8I`
+plasticity and material_law: about 3 hours on one core.  `plate` (4 cases:
+none, damping beta, a soft region, clamp compliance; a 16x8x2-voxel plate
+cantilevered from its short side, 2 s, no separability check by default) tries
+diagnose on another shape than the beams it was developed on.  `--element C3D8I`
 is about 4 times faster.  `--only CASE...` generates a subset (the
 parameters do not depend on the subset), so several subsets can run in
 parallel into separate folders.
@@ -175,6 +178,11 @@ def beam(kind):
     if kind == "small":
         return dict(n=(10, 2, 2), h=0.01, E=3.0e5, end_time=1.0, dt=0.002,
                     force=(0.0, 0.10, -0.08), markers=6)
+    if kind == "plate":
+        # a cantilevered plate, 16 x 8 x 2 voxels: the softest bending is out of plane, the
+        # in-plane one 16x stiffer, and the first torsion mode lies between them
+        return dict(n=(16, 8, 2), h=0.01, E=1.0e6, end_time=2.0, dt=0.002,
+                    force=(0.0, 3.0, -0.5), markers=10)
     return dict(n=(20, 4, 4), h=0.01, E=5.0e5, end_time=2.0, dt=0.002,
                 force=(0.0, 0.6, -0.4), markers=10)
 
@@ -210,8 +218,8 @@ def case_heterogeneity(name, kind, rng, factor):
     return c
 
 
-def case_clamp(name, rng, drop):
-    c = base_case(name, "full", rng, "clamp_compliance")
+def case_clamp(name, rng, drop, kind="full"):
+    c = base_case(name, kind, rng, "clamp_compliance")
     r = 1.0 / (1.0 - drop) ** 2 - 1.0          # extra tip compliance ratio
     k = 3.0 * c["E_true"] / (length(c) * r)   # rotational-spring estimate
     c["params"] = {"stiffness": float(k),
@@ -279,6 +287,15 @@ def cases_full(rng):
     cs.append(case_material_law("material-law-1", rng, 0.06))
     cs.append(case_material_law("material-law-2", rng, 0.10))
     return cs
+
+
+def cases_plate(rng):
+    """Another geometry than the beams the rest of diagnose was developed on."""
+    return [base_case("none-1", "plate", rng),
+            base_case("damping-beta", "plate", rng, "damping",
+                      {"alpha": 0.0, "beta": float(rng.uniform(1e-3, 5e-3))}, ["beta"]),
+            case_heterogeneity("heterogeneity-soft", "plate", rng, float(rng.uniform(0.3, 0.5))),
+            case_clamp("clamp-1", rng, 0.15, "plate")]
 
 
 # ----------------------------------------------------------------------------
@@ -575,8 +592,9 @@ def write_inp(case, mesh, variant, print_nodes, end_time, clamp_stress=False):
     # material_law: fixed increments diverge in the first one under the axial pull (NEO HOOKE,
     # full beam, any stair of 0.6 % strain or more); automatic increments (at most dt, cut
     # back where Newton fails) with the output at TIME POINTS keep the dt grid of samples.
+    # The plate needs them too: with fixed increments Newton diverges in its first swing.
     dt = case["dt"]
-    auto = case["effect"] == "material_law"
+    auto = case["effect"] == "material_law" or case["kind"] == "plate"
     if auto:
         n = int(round(end_time / dt))
         out += ["*TIME POINTS,NAME=TP,TIME=TOTAL TIME"]
@@ -954,7 +972,7 @@ def print_summary(name, truth, s):
 def cmd_generate(args):
     ccx = find_ccx(args.ccx)
     rng = np.random.default_rng(args.seed)
-    all_cases = cases_small(rng) if args.set == "small" else cases_full(rng)
+    all_cases = {"small": cases_small, "full": cases_full, "plate": cases_plate}[args.set](rng)
     cases = [c for c in all_cases if not args.only or c["name"] in args.only]
     unknown = set(args.only or []) - {c["name"] for c in all_cases}
     if unknown:
@@ -1185,7 +1203,7 @@ def main(argv=None):
     sub = ap.add_subparsers(dest="cmd", required=True)
     g = sub.add_parser("generate", help="make blind cases with CalculiX")
     g.add_argument("--out", required=True)
-    g.add_argument("--set", choices=("small", "full"), default="small")
+    g.add_argument("--set", choices=("small", "full", "plate"), default="small")
     g.add_argument("--seed", type=int, default=1)
     g.add_argument("--ccx", default="ccx")
     g.add_argument("--element", choices=("C3D20R", "C3D8I", "C3D8"), default="C3D20R",
