@@ -1310,6 +1310,13 @@ TEST(DiagnoseEndToEnd, FindsHiddenMassDampingFromMarkersAndAccelerometers) {
   std::smatch mt;
   ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"alpha\": \\{\"value\": ([-0-9.e+]+)")));
   EXPECT_NEAR(std::stod(mt[1].str()) / 3.0, 1.0, 0.2);
+  // The markers' weight: the lower of the recording's noise estimate and the calibrated
+  // baseline residual's, near the true sd.
+  ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"noise_estimate\": ([-0-9.e+]+)")));
+  const double noise_used = std::stod(mt[1].str());
+  ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"noise_estimate_recording\": ([-0-9.e+]+)")));
+  EXPECT_LE(noise_used, std::stod(mt[1].str()));
+  EXPECT_NEAR(noise_used / 2e-5, 1.0, 0.25);
   // The cost by phase accounts for every forward run, and the refits appear in it.
   ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"forward_runs\": ([0-9]+)")));
   const long total = std::stol(mt[1].str());
