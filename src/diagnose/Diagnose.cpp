@@ -776,11 +776,10 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   // times the true sd); the calibrated deck's residual has most of that motion removed. The
   // lower of the two weighs every value from here on (on the beams of the blind set the two
   // are within 10 %; on the plate 5.2e-4 and 2.6e-4 m, the truth 1.9e-4).
+  D.noise_recording_position = D.noise_position;
   if (base.pred.ok) {
     double res_pos = 0, res_acc = 0;
     residual_noise(obs, base.pred, res_pos, res_acc);
-    D.noise_recording_position = D.noise_position;
-    D.noise_recording_acceleration = D.noise_acceleration;
     if (res_pos > 0 && res_pos < D.noise_position) D.noise_position = res_pos;
     if (res_acc > 0 && res_acc < D.noise_acceleration) D.noise_acceleration = res_acc;
     Eigen::Index k = 0;

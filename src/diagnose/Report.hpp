@@ -107,8 +107,9 @@ struct Diagnosis {
   //! count (the misfit it leaves beyond the noise); ambiguous below 1.
   double runner_up_gap = std::numeric_limits<double>::quiet_NaN();
   double noise_position = 0, noise_acceleration = 0;
-  //! The recording's own noise estimates (local cubics), before the calibrated residual's.
-  double noise_recording_position = 0, noise_recording_acceleration = 0;
+  //! The recording's own noise estimate of the markers (local cubics), before the calibrated
+  //! residual's.
+  double noise_recording_position = 0;
   double chi2_red = 0, whiteness_p = 1, lag1 = 0;
   bool misfit = false;
   double dt = 0, numerical_change = 0;  //!< amplitude change of the dt/2 rerun, noise units
