@@ -6,6 +6,7 @@
 #include <mpi.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -412,11 +413,32 @@ TEST(DiagnoseScreening, AnotherLawIsAlsoProbedAtTheDecksNuWhereTheCalibrationCar
   EXPECT_EQ(bases[0].poisson_ratio, 0.3);
   EXPECT_EQ(bases[0].youngs_modulus, calibrated.youngs_modulus);
   EXPECT_EQ(bases[0].law, calibrated.law);
-  // No other effect asks for another baseline, but for contact_friction, which probes at the
-  // deck's E and nu (FindsAGroundTheDeckLeftOut... checks it).
-  for (const auto& e : effect_library())
-    if (e->name() != "material_law" && e->name() != "contact_friction")
-      for (const auto& v : e->variants(c)) EXPECT_TRUE(e->probe_baselines(c, v).empty());
+  // No other effect asks for another baseline, but for contact_friction and
+  // clamp_compliance, which probe at the deck's E and nu (FindsAGroundTheDeckLeftOut...
+  // checks contact's end to end).
+  for (const auto& e : effect_library()) {
+    if (e->name() == "material_law") continue;
+    for (const auto& v : e->variants(c)) {
+      const auto b = e->probe_baselines(c, v);
+      if (e->name() != "contact_friction" && e->name() != "clamp_compliance") {
+        EXPECT_TRUE(b.empty()) << e->name();
+        continue;
+      }
+      ASSERT_EQ(b.size(), 1u) << e->name();
+      EXPECT_EQ(b[0].poisson_ratio, 0.3) << e->name();
+      EXPECT_EQ(b[0].youngs_modulus, m.nominal().youngs_modulus) << e->name();
+    }
+  }
+  // With nu and E both near the deck's (E within 15 %), the root effects need no second probe.
+  {
+    EffectContext near = c;
+    near.base.poisson_ratio = 0.32;
+    near.base.youngs_modulus = 1.1 * m.nominal().youngs_modulus;
+    EXPECT_TRUE(find_effect("clamp_compliance").probe_baselines(near, "").empty());
+    EXPECT_TRUE(find_effect("contact_friction").probe_baselines(near, "").empty());
+    near.base.youngs_modulus = 0.67 * m.nominal().youngs_modulus;  // the plate's clamp-1: E -33 %
+    EXPECT_EQ(find_effect("clamp_compliance").probe_baselines(near, "").size(), 1u);
+  }
 
   // The share of the calibrated chi-square each probe explains (linearised, one direction).
   const Eigen::VectorXd r0 = weighted_residual(obs, ev.run_one(calibrated), obs.train);
@@ -862,6 +884,42 @@ TEST(DiagnoseFit, EvaluatorTakesRepeatedRunsFromItsMemo) {
   const Prediction cut = ev.run_one(m.nominal());
   EXPECT_EQ(ev.runs(), 3);
   EXPECT_TRUE(std::isnan(cut.y.back()));
+}
+
+TEST(DiagnoseFit, AFailedRunSaysWhereTheBodyGaveWayAndTheEvaluatorCountsIt) {
+  const VoxelModel m(deck());
+  const Observations obs = tip_observations(m, m.nominal(), 0.3);
+  ASSERT_FALSE(obs.y.empty());
+  // A load a thousand times the deck's on the same beam: the tip is pulled far past what the
+  // step can follow, and the step fails.
+  Physics crushed = m.nominal();
+  crushed.load_scale = 1e3;
+  const Trace tr = m.run(crushed, obs.requests);
+  ASSERT_FALSE(tr.ok);
+  EXPECT_NE(tr.failure.find("did not converge"), std::string::npos) << tr.failure;
+  // The message names the most compressed Gauss point of the last converged step, in a voxel
+  // of the body.
+  const std::string key = "smallest volume ratio ";
+  const auto at = tr.failure.find(key);
+  ASSERT_NE(at, std::string::npos) << tr.failure;
+  const double ratio = std::stod(tr.failure.substr(at + key.size()));
+  EXPECT_LT(ratio, 1.0) << tr.failure;
+  const auto open = tr.failure.find('(', at);
+  ASSERT_NE(open, std::string::npos) << tr.failure;
+  Vec3d x{};
+  ASSERT_EQ(std::sscanf(tr.failure.c_str() + open, "(%lf, %lf, %lf)", &x[0], &x[1], &x[2]), 3)
+      << tr.failure;
+  EXPECT_TRUE(m.inside(x)) << tr.failure;
+  // The evaluator counts failed runs (a memo hit is not a new failure) and keeps the first
+  // reason.
+  Evaluator ev(MPI_COMM_WORLD, m, obs);
+  const auto runs = ev.run({m.nominal(), crushed, crushed});
+  EXPECT_TRUE(runs[0].ok);
+  EXPECT_FALSE(runs[1].ok);
+  EXPECT_EQ(ev.failed(), 1);
+  EXPECT_EQ(ev.first_failure(), tr.failure);
+  ev.run({crushed});
+  EXPECT_EQ(ev.failed(), 1);
 }
 
 TEST(DiagnoseFit, ColumnsRunAheadLeaveAFitUnchangedBitForBit) {

@@ -2423,6 +2423,11 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   phase_done("signatures");
   D.runs = ev.runs() + D.refinement.runs;
   D.runs_reused = ev.reused();
+  D.failed_runs = ev.failed();
+  D.first_failure = ev.first_failure();
+  if (D.failed_runs > 0)
+    log::info("{} of {} forward runs failed; the first: {}", D.failed_runs, ev.runs(),
+              D.first_failure);
   D.run_seconds = ev.run_seconds() + D.refinement.run_seconds;
   D.idle_seconds = ev.idle_seconds() + D.refinement.idle_seconds;
   D.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();

@@ -113,6 +113,8 @@ std::vector<Prediction> Evaluator::run(const std::vector<Physics>& batch) {
     if (p.ok) {
       p.y.resize(obs_.size());
       MPI_Bcast(p.y.data(), static_cast<int>(p.y.size()), MPI_DOUBLE, owner, comm_);
+    } else if (failed_++ == 0) {
+      first_failure_ = p.failure;
     }
   }
   for (std::size_t i = 0; i < batch.size(); ++i) {

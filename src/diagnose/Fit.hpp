@@ -50,8 +50,13 @@ class Evaluator {
   Evaluator(MPI_Comm comm, const VoxelModel& model, const Observations& obs);
   std::vector<Prediction> run(const std::vector<Physics>& batch);
   Prediction run_one(const Physics& p) { return run({p})[0]; }
-  long runs() const { return runs_; }              //!< forward runs made
-  long reused() const { return reused_; }          //!< runs asked for and taken from the memo
+  long runs() const { return runs_; }      //!< forward runs made
+  long reused() const { return reused_; }  //!< runs asked for and taken from the memo
+  //! Forward runs made that failed (a step that did not converge, a singular matrix), and the
+  //! first one's reason: a fit whose probes fail near its best point says where the model
+  //! gives way, not only that it did.
+  long failed() const { return failed_; }
+  const std::string& first_failure() const { return first_failure_; }
   double run_seconds() const { return seconds_; }  //!< summed over ranks' runs
   //! Summed over ranks: the time in run() not spent running (waiting for the other ranks'
   //! runs, sharing the results). With P ranks, P x (wall in run()) = run + idle seconds.
@@ -72,7 +77,8 @@ class Evaluator {
   const Observations& obs_;
   double horizon_ = std::numeric_limits<double>::infinity();
   std::vector<ChannelRequest> requests_;  //!< obs_.requests cut at horizon_
-  long runs_ = 0, reused_ = 0;
+  long runs_ = 0, reused_ = 0, failed_ = 0;
+  std::string first_failure_;
   double seconds_ = 0, idle_ = 0;
   std::deque<std::pair<std::string, Prediction>> memo_;  //!< oldest first
   std::size_t memo_bytes_ = 0;

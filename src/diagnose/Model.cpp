@@ -909,6 +909,16 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   // Tangent stiffness at u1: dP/dF of the law (with plasticity: of the return map from the
   // step's start) by central differences per Gauss point (symmetrised), scaled like the stress
   // (region factor, relaxed viscous part).
+  // A voxel's node positions for the displacements uu, and its bubble amplitudes from aa.
+  auto element_coords = [&](std::size_t vx, const std::vector<double>& uu,
+                            const std::vector<double>& aa, double xe[kShapes][3]) {
+    for (int l = 0; l < 8; ++l) {
+      const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
+      for (int d = 0; d < 3; ++d) xe[l][d] = X_[n][d] + uu[3 * n + d];
+    }
+    if (bubbles)
+      for (int i = 0; i < 9; ++i) xe[8 + i / 3][i % 3] = aa[9 * vx + static_cast<std::size_t>(i)];
+  };
   auto tangent = [&]() -> bool {
     PhaseTimer timer(tr.time_tangent);
     double* kval = Kt.valuePtr();
@@ -918,13 +928,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     Condensed ce;
     for (std::size_t vx = 0; vx < nv; ++vx) {
       double xe[kShapes][3] = {};
-      for (int l = 0; l < 8; ++l) {
-        const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
-        for (int d = 0; d < 3; ++d) xe[l][d] = X_[n][d] + u1[3 * n + d];
-      }
-      if (bubbles)
-        for (int i = 0; i < 9; ++i)
-          xe[8 + i / 3][i % 3] = al1[9 * vx + static_cast<std::size_t>(i)];
+      element_coords(vx, u1, al1, xe);
       ElemMat Ke;
       const double w = h / 8.0 * vfac[vx] * vscale;  // h^3 / 8 * (1/h)^2
       if (vector_tangent)
@@ -1038,6 +1042,24 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   std::vector<double> fext(3 * nn, 0.0);
   const bool quadratic_drag = ph.drag_quadratic != 0, dry_friction = ph.coulomb_accel != 0;
   const double tol_du = ph.newton_tolerance * h;
+  // The most compressed Gauss point of the last converged state (volume ratio J), and its
+  // voxel's centre: where a failing run's body was about to collapse.
+  auto most_compressed = [&]() {
+    double jmin = std::numeric_limits<double>::infinity();
+    std::size_t vmin = 0;
+    for (std::size_t vx = 0; vx < nv; ++vx) {
+      double xe[kShapes][3] = {};
+      element_coords(vx, u, al, xe);
+      for (int q = 0; q < 8; ++q) {
+        double F[9];
+        grad_at(G[q], xe, F);
+        const double J = F[0] * (F[4] * F[8] - F[5] * F[7]) - F[1] * (F[3] * F[8] - F[5] * F[6]) +
+                         F[2] * (F[3] * F[7] - F[4] * F[6]);
+        if (J < jmin) jmin = J, vmin = vx;
+      }
+    }
+    return std::make_pair(jmin, voxel_center(vmin));
+  };
   for (long s = 1; s <= nsteps; ++s) {
     const double t1 = dt * static_cast<double>(s);
     // Predictor: the trapezoidal update with a1 guessed as the mean of the last two
@@ -1219,8 +1241,12 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
       }
     }
     if (!converged) {
+      const auto [jmin, at] = most_compressed();
       tr.ok = false;
-      tr.failure = fmt::format("step {} (t = {:.4g} s) did not converge", s, t1);
+      tr.failure = fmt::format(
+          "step {} (t = {:.4g} s) did not converge (smallest volume ratio {:.3g} of the last "
+          "converged step, in the voxel at ({:.4g}, {:.4g}, {:.4g}) m)",
+          s, t1, jmin, at[0], at[1], at[2]);
       return tr;
     }
     for (std::size_t i = 0; i < 3 * nn; ++i) {

@@ -190,10 +190,12 @@ std::string json(const Diagnosis& d) {
     costs += fmt::format("{}{{\"phase\": {}, \"runs\": {}, \"wall_seconds\": {}}}", i ? ", " : "",
                          jstr(d.phases[i].name), d.phases[i].runs, jnum(d.phases[i].wall_seconds));
   kv("cost",
-     fmt::format("{{\"forward_runs\": {}, \"runs_reused\": {}, \"run_seconds\": {}, "
-                 "\"idle_seconds\": {}, \"wall_seconds\": {}, \"ranks\": {}, \"phases\": {}]}}",
-                 d.runs, d.runs_reused, jnum(d.run_seconds), jnum(d.idle_seconds),
-                 jnum(d.wall_seconds), d.ranks, costs),
+     fmt::format("{{\"forward_runs\": {}, \"runs_reused\": {}, \"failed_runs\": {}, "
+                 "\"first_failure\": {}, \"run_seconds\": {}, \"idle_seconds\": {}, "
+                 "\"wall_seconds\": {}, \"ranks\": {}, \"phases\": {}]}}",
+                 d.runs, d.runs_reused, d.failed_runs,
+                 d.failed_runs > 0 ? jstr(d.first_failure) : std::string("null"),
+                 jnum(d.run_seconds), jnum(d.idle_seconds), jnum(d.wall_seconds), d.ranks, costs),
      true);
   return s + "}\n";
 }
@@ -339,6 +341,10 @@ std::string markdown(const Diagnosis& d) {
       "runs, {:.1f} s wall on {} rank(s); the ranks spent {:.1f} s more in batches of runs "
       "waiting for one another's runs and exchanging results.\n\n",
       d.runs, d.runs_reused, d.run_seconds, d.wall_seconds, d.ranks, d.idle_seconds);
+  if (d.failed_runs > 0)
+    m << fmt::format(
+        "{} of the forward runs failed (their parameters were rejected); the first: {}.\n\n",
+        d.failed_runs, d.first_failure);
   if (!d.phases.empty()) {
     m << "| phase | forward runs | wall s |\n|---|---:|---:|\n";
     for (const auto& p : d.phases)

@@ -123,7 +123,9 @@ struct Diagnosis {
   std::vector<std::string> contenders;  //!< the two effects an ambiguous verdict cannot separate
   std::string unexplained;
   long runs = 0;
-  long runs_reused = 0;  //!< runs asked for again and taken from the evaluator's memo
+  long runs_reused = 0;       //!< runs asked for again and taken from the evaluator's memo
+  long failed_runs = 0;       //!< forward runs that failed (Evaluator::failed)
+  std::string first_failure;  //!< the first failed run's reason
   double wall_seconds = 0, run_seconds = 0;
   double idle_seconds = 0;  //!< rank seconds in batches of runs not spent running (Evaluator)
   //! Forward runs and wall seconds by phase of the method, in order.
