@@ -906,9 +906,6 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     for (int j = 0; j < 3 * nshape; ++j)
       for (int i = j + 1; i < 3 * nshape; ++i) Ke(i, j) = Ke(j, i);
   };
-  // Tangent stiffness at u1: dP/dF of the law (with plasticity: of the return map from the
-  // step's start) by central differences per Gauss point (symmetrised), scaled like the stress
-  // (region factor, relaxed viscous part).
   // A voxel's node positions for the displacements uu, and its bubble amplitudes from aa.
   auto element_coords = [&](std::size_t vx, const std::vector<double>& uu,
                             const std::vector<double>& aa, double xe[kShapes][3]) {
@@ -919,6 +916,9 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     if (bubbles)
       for (int i = 0; i < 9; ++i) xe[8 + i / 3][i % 3] = aa[9 * vx + static_cast<std::size_t>(i)];
   };
+  // Tangent stiffness at u1: dP/dF of the law (with plasticity: of the return map from the
+  // step's start) by central differences per Gauss point (symmetrised), scaled like the stress
+  // (region factor, relaxed viscous part).
   auto tangent = [&]() -> bool {
     PhaseTimer timer(tr.time_tangent);
     double* kval = Kt.valuePtr();
@@ -1051,10 +1051,9 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
       double xe[kShapes][3] = {};
       element_coords(vx, u, al, xe);
       for (int q = 0; q < 8; ++q) {
-        double F[9];
-        grad_at(G[q], xe, F);
-        const double J = F[0] * (F[4] * F[8] - F[5] * F[7]) - F[1] * (F[3] * F[8] - F[5] * F[6]) +
-                         F[2] * (F[3] * F[7] - F[4] * F[6]);
+        materials::Mat3 F;
+        grad_at(G[q], xe, F.a);
+        const double J = materials::det(F);
         if (J < jmin) jmin = J, vmin = vx;
       }
     }
