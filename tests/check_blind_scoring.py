@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Checks the blind set's scoring rules (drivers/validation/diagnose_blind.py) on made-up
-truth/report pairs, and its modal equivalence of mass damping and surface drag.
+truth/report pairs, its modal equivalence of mass damping and surface drag, and its clamp's
+consistent foundation springs.
 
 Usage: check_blind_scoring.py PATH/TO/diagnose_blind.py
 
@@ -8,6 +9,8 @@ Usage: check_blind_scoring.py PATH/TO/diagnose_blind.py
   the confounder that truth.json's separability check found inseparable; a separable case,
   other contenders, or a confounder named alone stay wrong; the strict count is kept apart.
 - The modal equivalent alpha = c (P L + 4 A_tip) / (rho A L) maps drag to damping and back.
+- The clamp_compliance springs hold the root face's translation and its rotation across a
+  two-element thickness at a continuous foundation's stiffness (lumped springs: 1.167 times).
 """
 import importlib.util
 import sys
@@ -70,6 +73,47 @@ def main():
     check(db.confounder({"effect": "damping", "params": {"alpha": 0.0, "beta": 2e-3},
                          "n": (20, 4, 4), "h": 0.01}) is None,
           "stiffness-proportional damping has no such confounder")
+
+    # The clamp's foundation: consistent springs carry a continuous foundation's stiffness
+    # against the face's rigid motions exactly, where lumped ones overstate its rotation.
+    M = db.face_mass_matrix(True)
+    check(abs(M.sum() - 1) < 1e-12 and abs(M.sum(1)[0] + 1 / 12) < 1e-12
+          and abs(M.sum(1)[4] - 1 / 3) < 1e-12, "serendipity face: rows sum to -1/12, 1/3")
+    mesh = db.Mesh((2, 8, 2), 0.01, "C3D20R")
+    on_root = lambda axis, side: axis == 0 and side == 0
+    k = 1e7
+    g = db.Grounds(mesh)
+    g.foundation(mesh, on_root, k)
+    ground, pairs = {}, {}
+    it = iter(g.lines)
+    for line in it:  # SPRING1 "e,n" / SPRING2 "e,a,b" rows, then *SPRING, dofs, value
+        if line.startswith("*ELEMENT"):
+            kind, rows = line.split("TYPE=")[1].split(",")[0], []
+            for row in it:
+                if row.startswith("*SPRING"):
+                    break
+                rows.append([int(v) for v in row.split(",")[1:]])
+            dofs, value = next(it), float(next(it))
+            if dofs.split(",")[0] != "3":
+                continue
+            for r in rows:
+                if kind == "SPRING1":
+                    ground[r[0]] = ground.get(r[0], 0.0) + value
+                else:
+                    pairs[tuple(r)] = pairs.get(tuple(r), 0.0) + value
+
+    def energy(w):  # one direction's springs (all three alike) under the root face's w(node)
+        e = sum(c * w(n) ** 2 for n, c in ground.items())
+        return 0.5 * (e + sum(c * (w(a) - w(b)) ** 2 for (a, b), c in pairs.items()))
+
+    z = lambda n: mesh.xyz(n)[2] - 0.01  # a rotation about y across the two-element thickness
+    area = mesh.areas(on_root)
+    exact_rot = 0.5 * k * 0.08 * 0.02 ** 3 / 12
+    lumped_rot = 0.5 * k * sum(a * z(n) ** 2 for n, a in area.items())
+    check(abs(energy(lambda n: 1.0) - 0.5 * k * 0.08 * 0.02) < 1e-9 * k
+          and abs(energy(z) - exact_rot) < 1e-9 * exact_rot,
+          "consistent clamp: translation and rotation at the continuous foundation's "
+          "stiffness (lumped: %.3f x)" % (lumped_rot / exact_rot))
     print("%d failure(s)" % len(failures))
     return 1 if failures else 0
 

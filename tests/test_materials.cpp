@@ -450,6 +450,98 @@ TEST(Materials, NeoHookeanIsFiniteAndRestoringWhenInverted) {
   EXPECT_GT(nh.energy(gm::diag3(Vec3{{1, 1, -0.5}})), nh.energy(gm::diag3(Vec3{{1, 1, 0.5}})));
 }
 
+// F = R1 diag(s) R2 with random rotations: a deformation with the given principal stretches.
+Mat3 with_stretches(std::mt19937_64& rng, const Vec3& s) {
+  return random_rotation(rng) * gm::diag3(s) * random_rotation(rng);
+}
+
+TEST(Materials, StVKStretchScreenAgreesWithTheSvd) {
+  // stretches_above (no SVD) must say whether det F > 0 and every principal stretch exceeds sc,
+  // as the signed SVD says, except within rounding of the threshold.
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<double> stretch(0.3, 1.6), sign(-1, 1);
+  const double sc = 0.6;
+  int above = 0, below = 0;
+  for (int i = 0; i < 20000; ++i) {
+    Vec3 s{{stretch(rng), stretch(rng), stretch(rng)}};
+    if (i % 7 == 0) s[i % 3] = sign(rng);  // some flattened or inverted
+    const Mat3 F = with_stretches(rng, s);
+    Mat3 U, V;
+    Vec3 sg;
+    gm::svd3(F, U, sg, V);
+    if (std::abs(sg[2] - sc) < 1e-9) continue;
+    const bool svd_says = sg[2] > sc;
+    EXPECT_EQ(gm::StVK::stretches_above(F.a, sc), svd_says)
+        << "sigma " << sg[0] << " " << sg[1] << " " << sg[2];
+    (svd_says ? above : below)++;
+  }
+  EXPECT_GT(above, 4000);
+  EXPECT_GT(below, 4000);
+}
+
+TEST(Materials, StVKContinuationIsStVKAboveTheStretchAndC1AcrossIt) {
+  const auto law = gm::StVK::from_young_poisson(1e6, 0.3);
+  const double sc = 0.6;
+  std::mt19937_64 rng(29);
+  Mat3 P;
+  // At and above sc: untouched.
+  for (int i = 0; i < 100; ++i) {
+    const Mat3 F = with_stretches(rng, Vec3{{1.2, 0.9, 0.61}});
+    EXPECT_FALSE(law.pk1_continued(F, sc, P));
+  }
+  // Across sc, along one stretch with the others fixed: the stress and its slope are continuous
+  // (the first-order expansion about sc), and below sc the slope stays StVK's at sc.
+  const Mat3 R1 = random_rotation(rng), R2 = random_rotation(rng);
+  auto stress = [&](double s) {
+    const Mat3 F = R1 * gm::diag3(Vec3{{1.1, 0.95, s}}) * R2;
+    Mat3 Pc = law.pk1(F);
+    law.pk1_continued(F, sc, Pc);
+    return Pc;
+  };
+  const double d = 1e-5;
+  const Mat3 lo = stress(sc - d), mid = stress(sc), hi = stress(sc + d);
+  double scale = 0, jump1 = 0;
+  for (int i = 0; i < 9; ++i) {
+    scale = std::max(scale, std::abs(mid.a[i]));
+    // second difference: O(d^2 P'') for a C1 function, O(d P') across a kink
+    jump1 = std::max(jump1, std::abs(hi.a[i] - 2 * mid.a[i] + lo.a[i]));
+  }
+  EXPECT_LT(jump1, 1e-6 * scale);
+  const Mat3 a = stress(0.3), b = stress(0.0), c = stress(-0.3);
+  for (int i = 0; i < 9; ++i)  // linear below sc: equal differences
+    EXPECT_NEAR(a.a[i] - b.a[i], b.a[i] - c.a[i], 1e-9 * scale) << i;
+}
+
+TEST(Materials, StVKContinuationPushesAnInvertedPointBack) {
+  // StVK's energy depends on C = F^T F only, so a reflection (C = I, det F = -1) is stress free:
+  // a Gauss point can sit inverted at zero energy. Continued, the stress opposes the inversion.
+  const auto law = gm::StVK::from_young_poisson(1e6, 0.3);
+  std::mt19937_64 rng(31);
+  const Mat3 mirror = random_rotation(rng) * gm::diag3(Vec3{{1, 1, -1}}) * random_rotation(rng);
+  for (double x : law.pk1(mirror).a) EXPECT_NEAR(x, 0.0, 1e-9);
+  Mat3 P;
+  ASSERT_TRUE(law.pk1_continued(mirror, 0.6, P));
+  double norm = 0;
+  for (double x : P.a) norm += x * x;
+  EXPECT_GT(std::sqrt(norm), 1e5);
+  // The principal stress along the smallest stretch at sc (the others 1.1 and 0.95): below it the
+  // continued stress is more compressive still, so dpsi = P : dF < 0 for dF growing that
+  // stretch back (dF = R1 diag(0, 0, 1) R2).
+  const double sum = (1.21 - 1) + (0.9025 - 1) + (0.36 - 1);
+  const double at_sc = 0.6 * (law.mu * (0.36 - 1) + 0.5 * law.lambda * sum);
+  ASSERT_LT(at_sc, 0);
+  for (double s : {-0.8, -0.5, 0.0, 0.3}) {
+    const Mat3 R1 = random_rotation(rng), R2 = random_rotation(rng);
+    const Mat3 F = R1 * gm::diag3(Vec3{{1.1, 0.95, s}}) * R2;
+    P = law.pk1(F);
+    ASSERT_TRUE(law.pk1_continued(F, 0.6, P)) << s;
+    const Mat3 dF = R1 * gm::diag3(Vec3{{0, 0, 1}}) * R2;
+    double work = 0;
+    for (int i = 0; i < 9; ++i) work += P.a[i] * dF.a[i];
+    EXPECT_LT(work, at_sc) << s;
+  }
+}
+
 TEST(Materials, NewLawsProjectionStiffnessBoundsTheStressJacobian) {
   for (double nu : {0.0, 0.3, 0.45}) {
     expect_projection_stiffness_bounds(gm::NeoHookean::from_young_poisson(1e6, nu), 0.1,

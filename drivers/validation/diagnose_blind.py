@@ -57,7 +57,7 @@ CalculiX model (ccx 2.20 behaviour checked by experiment)
   corners -1/12 and midsides 1/3, i.e. negative corners; instead we lump
   with the HRZ row scaling of the quadratic face (corners 1/36, midsides 2/9
   of the face area: positive, sums to the face area).  These areas are used
-  for the tip load, the clamp springs and the air-drag dashpots.
+  for the tip load, the clamp dashpots and the air-drag dashpots.
 * Gravity: `*DLOAD, EALL, GRAV, |g|, direction`.
 * Output: `*NODE PRINT` of U for the marker nodes and a tip probe every
   increment, parsed from the .dat file; the displacements are interpolated
@@ -81,10 +81,21 @@ Effects (names and parameters as `gen4d diagnose` reports them)
   stiffness_factor (region in truth.json, reference coordinates).
 * gravity: the deck has gravity 0 while the data has -9.81 z, or the deck has
   -z while the data's gravity is tilted about x (parameters gx, gy, gz).
-* clamp_compliance: the x = 0 nodes are not fixed; each is tied to ground in
-  x, y and z by a SPRING1 element (stiffness * area) and a DASHPOTA element
-  to a fixed ground node 1 km away along the axis (damping * area).
-  Stiffness [N/m per m^2] is picked for a 15-22 % lower first frequency.
+* clamp_compliance: the x = 0 nodes are not fixed; the face rests on a
+  continuous elastic foundation of `stiffness` [N/m per m^2] in x, y and z,
+  with the foundation's consistent stiffness k int N_i N_j dA over each face
+  of the elements (as gen4d integrates its own): SPRING2 elements of
+  -K_ij between the face's nodes and SPRING1 elements of the row sums
+  to ground, per direction (the C3D20R corners' row sums are negative, the
+  whole matrix positive definite; ccx accepts both).  Lumped springs
+  (stiffness * tributary area, used until this was found) give a two-element
+  thick face 1.17 times the foundation's rotational stiffness, 1.25 times in
+  a static ccx test of the plate's root, and gen4d had to fit that.  Each
+  node also has a DASHPOTA element to a fixed ground node 1 km away along
+  each axis (damping * tributary area): ccx has no per-direction two-node
+  dashpot to make the damping consistent too, so the damping, which is not
+  scored, keeps the lumped weights.
+  Stiffness is picked for a 15-22 % lower first frequency.
 * air_drag: linear only (`quadratic` = 0): three DASHPOTA per surface node
   (x, y, z, to fixed ground nodes 1 km away, so that each keeps its axis as the
   node moves) with coefficient linear * A_i,
@@ -302,6 +313,32 @@ def cases_plate(rng):
 # Mesh
 
 
+def face_shapes(quadratic, x, y):
+    """Shape functions of a quadrilateral face on [-1, 1]^2: corners (-1,-1), (1,-1),
+    (1,1), (-1,1), then (quadratic, serendipity) the midsides of those edges in order."""
+    corners = [(-1, -1), (1, -1), (1, 1), (-1, 1)]
+    if not quadratic:
+        return np.array([0.25 * (1 + a * x) * (1 + b * y) for a, b in corners])
+    out = [0.25 * (1 + a * x) * (1 + b * y) * (a * x + b * y - 1) for a, b in corners]
+    for a, b in [(0, -1), (1, 0), (0, 1), (-1, 0)]:
+        out.append(0.5 * (1 - x * x) * (1 + b * y) if a == 0 else 0.5 * (1 + a * x) * (1 - y * y))
+    return np.array(out)
+
+
+def face_mass_matrix(quadratic):
+    """int N_i N_j dA over a unit-area face (3-point Gauss per axis, exact for these
+    degrees); its rows sum to the consistent load shares (-1/12 corners, 1/3 midsides
+    for the serendipity face)."""
+    g, w = np.polynomial.legendre.leggauss(3)
+    n = 8 if quadratic else 4
+    M = np.zeros((n, n))
+    for i in range(3):
+        for j in range(3):
+            N = face_shapes(quadratic, g[i], g[j])
+            M += w[i] * w[j] * np.outer(N, N)
+    return M / 4.0
+
+
 class Mesh:
     """Structured hexahedral mesh of the box on a half-spacing index grid."""
 
@@ -375,6 +412,15 @@ class Mesh:
             elif odd == 1:
                 out[nid] = 2.0 / 9.0
         return out
+
+    def face_foundation(self, pts):
+        """Node ids of one element face and its consistent matrix int N_i N_j dA
+        (serendipity 8-node face for C3D20R, bilinear for C3D8/C3D8I)."""
+        order = [(0, 0), (2, 0), (2, 2), (0, 2)]
+        if self.quadratic:
+            order += [(1, 0), (2, 1), (1, 2), (0, 1)]
+        ids = [self.nid(*pts[3 * a + b]) for a, b in order]
+        return ids, face_mass_matrix(self.quadratic) * self.h ** 2
 
     def areas(self, select):
         """Tributary area per node of the boundary faces with select(axis, side)."""
@@ -525,6 +571,37 @@ class Grounds:
                     self.next_elem += 1
                 self.lines += ["*SPRING,ELSET=%s" % name, str(d + 1), fmt(coef)]
 
+    def foundation(self, mesh, select, k):
+        """A continuous elastic foundation of k [N/m per m^2] in x, y and z under the
+        boundary faces with select(axis, side), with its consistent stiffness: SPRING2
+        elements of -K_ij between the nodes of each face and SPRING1 elements of the row
+        sums to ground (see clamp_compliance in the module docstring)."""
+        K = {}
+        for axis, side, pts in mesh.boundary_faces():
+            if not select(axis, side):
+                continue
+            ids, M = mesh.face_foundation(pts)
+            for a, ia in enumerate(ids):
+                for b, ib in enumerate(ids):
+                    K[(ia, ib)] = K.get((ia, ib), 0.0) + k * M[a, b]
+        rows = {}
+        for (a, _), v in K.items():
+            rows[a] = rows.get(a, 0.0) + v
+        self.springs(rows)
+        pairs = {}
+        for (a, b), v in K.items():
+            if a < b and v != 0.0:
+                pairs.setdefault(round(-v, 12), []).append((a, b))
+        for coef, ab in sorted(pairs.items()):
+            for d in range(3):
+                self.sets += 1
+                name = "SP%d" % self.sets
+                self.lines.append("*ELEMENT,TYPE=SPRING2,ELSET=%s" % name)
+                for a, b in ab:
+                    self.lines.append("%d,%d,%d" % (self.next_elem, a, b))
+                    self.next_elem += 1
+                self.lines += ["*SPRING,ELSET=%s" % name, "%d,%d" % (d + 1, d + 1), fmt(coef)]
+
     def output(self):
         if not self.nodes:
             return []
@@ -572,7 +649,7 @@ def write_inp(case, mesh, variant, print_nodes, end_time, clamp_stress=False):
     grounds = Grounds(mesh)
     if eff == "clamp_compliance":
         area = mesh.areas(lambda axis, side: axis == 0 and side == 0)
-        grounds.springs({n: p["stiffness"] * a for n, a in area.items()})
+        grounds.foundation(mesh, lambda axis, side: axis == 0 and side == 0, p["stiffness"])
         grounds.dashpots({n: p["damping"] * a for n, a in area.items()})
     else:
         out += ["*BOUNDARY", "NCLAMP,1,3"]

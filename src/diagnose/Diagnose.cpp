@@ -17,6 +17,7 @@
 #include "core/Error.hpp"
 #include "core/Log.hpp"
 #include "diagnose/Effects.hpp"
+#include "diagnose/ElementKernel.hpp"
 #include "diagnose/Fit.hpp"
 #include "diagnose/Modal.hpp"
 #include "diagnose/Recording.hpp"
@@ -2425,6 +2426,12 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   D.runs_reused = ev.reused();
   D.failed_runs = ev.failed();
   D.first_failure = ev.first_failure();
+  D.continued_runs = ev.continued();
+  if (D.continued_runs > 0)
+    log::info(
+        "{} of {} forward runs compressed StVK voxels past the stretch {} (stress continued "
+        "below it)",
+        D.continued_runs, ev.runs(), kStvkContinuedStretch);
   if (D.failed_runs > 0)
     log::info("{} of {} forward runs failed; the first: {}", D.failed_runs, ev.runs(),
               D.first_failure);

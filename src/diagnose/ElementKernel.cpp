@@ -3,6 +3,7 @@
 #include "diagnose/ElementKernel.hpp"
 
 #include "diagnose/Isa.hpp"
+#include "materials/StVK.hpp"
 #include "materials/Svd3.hpp"
 
 #include <algorithm>
@@ -31,29 +32,6 @@ GEN4D_ALWAYS_INLINE void lanes_grad(const double (*G)[3][kLanes], const double x
     }
 }
 
-// StVK: E = (F^T F - I) / 2, S = 2 mu E + lambda tr(E) I, P = F S (m2 = 2 mu), in the order
-// of materials::StVK::pk1.
-GEN4D_ALWAYS_INLINE void lanes_stvk(const Lanes F[9], double m2, double lambda, Lanes P[9]) {
-  alignas(64) Lanes E[9], tr;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) {
-      const double id = r == c ? 1.0 : 0.0;
-      for (int q = 0; q < kLanes; ++q)
-        E[3 * r + c][q] =
-            0.5 * (F[r][q] * F[c][q] + F[3 + r][q] * F[3 + c][q] + F[6 + r][q] * F[6 + c][q] - id);
-    }
-  for (int q = 0; q < kLanes; ++q) tr[q] = lambda * (E[0][q] + E[4][q] + E[8][q]);
-  for (int i = 0; i < 9; ++i) {
-    const double id = i % 4 == 0 ? 1.0 : 0.0;
-    for (int q = 0; q < kLanes; ++q) E[i][q] = m2 * E[i][q] + tr[q] * id;  // now S
-  }
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c)
-      for (int q = 0; q < kLanes; ++q)
-        P[3 * r + c][q] =
-            F[3 * r][q] * E[c][q] + F[3 * r + 1][q] * E[3 + c][q] + F[3 * r + 2][q] * E[6 + c][q];
-}
-
 // Cofactor and determinant of each lane's matrix, in the order of materials::cofactor, det.
 GEN4D_ALWAYS_INLINE void lanes_cofactor(const Lanes A[9], Lanes C[9]) {
   for (int q = 0; q < kLanes; ++q) {
@@ -74,6 +52,55 @@ GEN4D_ALWAYS_INLINE void lanes_det(const Lanes A[9], Lanes d) {
            A[1][q] * (A[3][q] * A[8][q] - A[5][q] * A[6][q]) +
            A[2][q] * (A[3][q] * A[7][q] - A[4][q] * A[6][q]);
 }
+// StVK: E = (F^T F - I) / 2, S = 2 mu E + lambda tr(E) I, P = F S (m2 = 2 mu), in the order
+// of materials::StVK::pk1.
+// continued: when set, counts the lanes below the continued stretch (or inverted).
+GEN4D_ALWAYS_INLINE void lanes_stvk(const Lanes F[9], double m2, double lambda, Lanes P[9],
+                                    long* continued = nullptr) {
+  alignas(64) Lanes E[9], tr;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      const double id = r == c ? 1.0 : 0.0;
+      for (int q = 0; q < kLanes; ++q)
+        E[3 * r + c][q] =
+            0.5 * (F[r][q] * F[c][q] + F[3 + r][q] * F[3 + c][q] + F[6 + r][q] * F[6 + c][q] - id);
+    }
+  for (int q = 0; q < kLanes; ++q) tr[q] = lambda * (E[0][q] + E[4][q] + E[8][q]);
+  for (int i = 0; i < 9; ++i) {
+    const double id = i % 4 == 0 ? 1.0 : 0.0;
+    for (int q = 0; q < kLanes; ++q) E[i][q] = m2 * E[i][q] + tr[q] * id;  // now S
+  }
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      for (int q = 0; q < kLanes; ++q)
+        P[3 * r + c][q] =
+            F[3 * r][q] * E[c][q] + F[3 * r + 1][q] * E[3 + c][q] + F[3 * r + 2][q] * E[6 + c][q];
+  // Below the continued stretch (or inverted), the scalar loop's continuation, lane by lane;
+  // the screen is materials::StVK::stretches_above in lanes, operation for operation.
+  constexpr double sc = kStvkContinuedStretch, s = sc * sc;
+  alignas(64) Lanes C[9], J, i1, i2;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      for (int q = 0; q < kLanes; ++q)
+        C[3 * r + c][q] = F[r][q] * F[c][q] + F[3 + r][q] * F[3 + c][q] + F[6 + r][q] * F[6 + c][q];
+  lanes_det(F, J);
+  for (int q = 0; q < kLanes; ++q) {
+    i1[q] = C[0][q] + C[4][q] + C[8][q];
+    i2[q] = (C[0][q] * C[4][q] + C[0][q] * C[8][q] + C[4][q] * C[8][q]) -
+            (C[1][q] * C[1][q] + C[2][q] * C[2][q] + C[5][q] * C[5][q]);
+  }
+  for (int q = 0; q < kLanes; ++q) {
+    if (J[q] > 0 && i1[q] > 3.0 * s && (3.0 * s * s - 2.0 * i1[q] * s + i2[q]) > 0 &&
+        ((s - i1[q]) * s + i2[q]) * s - J[q] * J[q] < 0)
+      continue;
+    if (continued) ++*continued;
+    materials::Mat3 Fq, Pq;
+    for (int i = 0; i < 9; ++i) Fq.a[i] = F[i][q];
+    if (materials::StVK{0.5 * m2, lambda}.pk1_continued(Fq, sc, Pq))
+      for (int i = 0; i < 9; ++i) P[i][q] = Pq.a[i];
+  }
+}
+
 // A : A, summed in materials::frobenius_dot's order, and its square root.
 GEN4D_ALWAYS_INLINE void lanes_sqnorm(const Lanes A[9], Lanes s) {
   for (int q = 0; q < kLanes; ++q) {
@@ -255,7 +282,7 @@ GEN4D_ALWAYS_INLINE void force_pass_body(const ElasticForcePass& p) {
         lanes_corotated(F, p.mu, p.lambda, P);
         break;
       default:
-        lanes_stvk(F, m2, p.lambda, P);
+        lanes_stvk(F, m2, p.lambda, P, p.continued);
     }
     if (p.q) {
       // Relaxing part: dq/dt = (g P_el - q) / tau (backward Euler); stress P_el - q.

@@ -22,6 +22,15 @@ namespace gen4d::diagnose {
 //! modes of Wilson and Taylor, one per axis (see Model.cpp).
 constexpr int kShapes = 11;
 
+//! The principal stretch below which the forward model continues StVK's stress linearly
+//! (materials::StVK::pk1_continued), in both element loops, scalar and vector: just above
+//! StVK's limit point in uniaxial compression (1/sqrt 3 = 0.577), where its compressive stress
+//! peaks and the law begins to soften, so StVK is unchanged wherever it is still stable that
+//! way. A root of soft voxels under a clamped plate's in-plane bending otherwise let one Gauss
+//! point of an incompatible-mode voxel snap to StVK's zero-energy reflection (volume ratio -1.1)
+//! and the run fail a few steps later.
+constexpr double kStvkContinuedStretch = 0.6;
+
 //! Von Mises equivalent of a (Kirchhoff) stress, sqrt(3/2 |dev tau|^2), row-major.
 inline double mises(const double tau[9]) {
   const double p = (tau[0] + tau[4] + tau[8]) / 3.0;
@@ -65,8 +74,10 @@ struct ElasticForcePass {
   double* q_new = nullptr;
   double prony_rate = 0, prony_rate_g = 0;
   double* max_mises = nullptr;  //!< when set: raised to the largest von Mises stress
-  double* fint = nullptr;       //!< out: 3 per node (zeroed by the caller)
-  double* ral = nullptr;        //!< out: the bubbles' residual, 9 per voxel
+  //! StVK, when set: counts the Gauss points whose stress was continued (or inverted).
+  long* continued = nullptr;
+  double* fint = nullptr;  //!< out: 3 per node (zeroed by the caller)
+  double* ral = nullptr;   //!< out: the bubbles' residual, 9 per voxel
 };
 
 //! Runs the pass (with the instruction set in use).

@@ -87,6 +87,7 @@ std::vector<Prediction> Evaluator::run(const std::vector<Physics>& batch) {
     p.failure = tr.failure;
     p.max_mises = tr.max_mises;
     p.max_speed = tr.max_speed;
+    p.continued_points = tr.continued_points;
     if (tr.ok) {
       p.y.reserve(obs_.size());
       for (std::size_t c = 0; c < tr.channel.size(); ++c) {
@@ -101,18 +102,21 @@ std::vector<Prediction> Evaluator::run(const std::vector<Physics>& batch) {
   for (std::size_t q = 0; q < todo.size(); ++q) {
     const int owner = static_cast<int>(q % static_cast<std::size_t>(size_));
     Prediction& p = out[todo[q]];
-    double head[4] = {p.ok ? 1.0 : 0.0, p.max_mises, p.max_speed,
-                      static_cast<double>(p.failure.size())};
-    MPI_Bcast(head, 4, MPI_DOUBLE, owner, comm_);
+    double head[5] = {p.ok ? 1.0 : 0.0, p.max_mises, p.max_speed,
+                      static_cast<double>(p.failure.size()),
+                      static_cast<double>(p.continued_points)};
+    MPI_Bcast(head, 5, MPI_DOUBLE, owner, comm_);
     p.ok = head[0] != 0.0;
     p.max_mises = head[1];
     p.max_speed = head[2];
     p.failure.resize(static_cast<std::size_t>(head[3]));
+    p.continued_points = static_cast<long>(head[4]);
     if (!p.failure.empty())
       MPI_Bcast(p.failure.data(), static_cast<int>(p.failure.size()), MPI_CHAR, owner, comm_);
     if (p.ok) {
       p.y.resize(obs_.size());
       MPI_Bcast(p.y.data(), static_cast<int>(p.y.size()), MPI_DOUBLE, owner, comm_);
+      if (p.continued_points > 0) ++continued_;
     } else if (failed_++ == 0) {
       first_failure_ = p.failure;
     }

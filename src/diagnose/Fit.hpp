@@ -38,6 +38,7 @@ struct Prediction {
   std::string failure;
   std::vector<double> y;  //!< same layout as Observations::y
   double max_mises = 0, max_speed = 0;
+  long continued_points = 0;  //!< Trace::continued_points
 };
 
 //! Runs batches of forward models, each on one rank, results shared by all ranks. A run is
@@ -57,6 +58,9 @@ class Evaluator {
   //! gives way, not only that it did.
   long failed() const { return failed_; }
   const std::string& first_failure() const { return first_failure_; }
+  //! Forward runs made (not failed) in which StVK's stress was continued below its stable
+  //! stretch (Trace::continued_points > 0): parameters that crush part of the body.
+  long continued() const { return continued_; }
   double run_seconds() const { return seconds_; }  //!< summed over ranks' runs
   //! Summed over ranks: the time in run() not spent running (waiting for the other ranks'
   //! runs, sharing the results). With P ranks, P x (wall in run()) = run + idle seconds.
@@ -77,7 +81,7 @@ class Evaluator {
   const Observations& obs_;
   double horizon_ = std::numeric_limits<double>::infinity();
   std::vector<ChannelRequest> requests_;  //!< obs_.requests cut at horizon_
-  long runs_ = 0, reused_ = 0, failed_ = 0;
+  long runs_ = 0, reused_ = 0, failed_ = 0, continued_ = 0;
   std::string first_failure_;
   double seconds_ = 0, idle_ = 0;
   std::deque<std::pair<std::string, Prediction>> memo_;  //!< oldest first

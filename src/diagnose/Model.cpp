@@ -668,6 +668,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   Eigen::VectorXd R(ndof), du(ndof), wa(ndof), Mwa(ndof);
   const ElementStencil& S = ElementStencil::get();
   double step_max_mises = 0;
+  long step_continued = 0;  // StVK: Gauss points continued at the step's predictor
 
   // Stress of the elastic law, and of the plastic return map from the state at the start of
   // the step (Gauss point g): P, the Kirchhoff stress, the trial state and Fp^-1.
@@ -682,6 +683,10 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
       Pm = law.pk1(Fm, R);
     } else {
       Pm = law.pk1(Fm);
+      if constexpr (std::is_same_v<Law, materials::StVK>) {
+        constexpr double sc = kStvkContinuedStretch;
+        if (!materials::StVK::stretches_above(Fm.a, sc)) law.pk1_continued(Fm, sc, Pm);
+      }
     }
     std::copy(Pm.a, Pm.a + 9, P);
   };
@@ -755,7 +760,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
   auto internal = [&](bool with_mises) -> bool {
     PhaseTimer timer(tr.time_internal);
     std::fill(fint.begin(), fint.end(), 0.0);
-    if (with_mises) step_max_mises = 0;
+    if (with_mises) step_max_mises = 0, step_continued = 0;
     if (vector_pass) {
       pass.u = u1.data();
       pass.v = v1.data();
@@ -764,6 +769,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
       pass.q = visco ? qv.data() : nullptr;
       pass.q_new = visco ? qv_new.data() : nullptr;
       pass.max_mises = with_mises ? &step_max_mises : nullptr;
+      pass.continued = with_mises ? &step_continued : nullptr;
       pass.fint = fint.data();
       pass.ral = ral.data();
       elastic_force_pass(pass);
@@ -790,6 +796,9 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
           if (!plastic_stress(g, F, P, tau, &pstate_new[g], &fp_inv_new[9 * g])) return false;
         } else {
           elastic_stress(F, P);
+          if constexpr (std::is_same_v<Law, materials::StVK>)
+            if (with_mises && !materials::StVK::stretches_above(F, kStvkContinuedStretch))
+              ++step_continued;
         }
         if (visco) {
           // Relaxing part q: dq/dt = (g P_el - q) / tau (backward Euler); stress P_el - q.
@@ -1262,6 +1271,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     if (plastic) fp_inv.swap(fp_inv_new), pstate.swap(pstate_new);
     if (visco) qv.swap(qv_new);
     tr.max_mises = std::max(tr.max_mises, step_max_mises);
+    tr.continued_points += step_continued;
     for (std::size_t n = 0; n < nn; ++n) {
       const double* vn = &v[3 * n];
       tr.max_speed =

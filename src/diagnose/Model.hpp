@@ -92,6 +92,10 @@ struct Trace {
   long newton_iterations = 0;
   long factorizations = 0;
   long restarts = 0;  //!< steps whose lagged-tangent Newton diverged and were redone
+  //! StVK: Gauss points whose stress was continued below kStvkContinuedStretch (or that were
+  //! inverted), counted once per step at its predictor (the pass that also takes the step's
+  //! von Mises stress); 0 for the other laws.
+  long continued_points = 0;
   //! Wall seconds by phase: internal forces, tangent assembly, factorization, back-substitution.
   double time_internal = 0, time_tangent = 0, time_factor = 0, time_solve = 0;
 };

@@ -1,5 +1,7 @@
 #include "diagnose/Report.hpp"
 
+#include "diagnose/ElementKernel.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -191,10 +193,10 @@ std::string json(const Diagnosis& d) {
                          jstr(d.phases[i].name), d.phases[i].runs, jnum(d.phases[i].wall_seconds));
   kv("cost",
      fmt::format("{{\"forward_runs\": {}, \"runs_reused\": {}, \"failed_runs\": {}, "
-                 "\"first_failure\": {}, \"run_seconds\": {}, \"idle_seconds\": {}, "
-                 "\"wall_seconds\": {}, \"ranks\": {}, \"phases\": {}]}}",
+                 "\"first_failure\": {}, \"continued_runs\": {}, \"run_seconds\": {}, "
+                 "\"idle_seconds\": {}, \"wall_seconds\": {}, \"ranks\": {}, \"phases\": {}]}}",
                  d.runs, d.runs_reused, d.failed_runs,
-                 d.failed_runs > 0 ? jstr(d.first_failure) : std::string("null"),
+                 d.failed_runs > 0 ? jstr(d.first_failure) : std::string("null"), d.continued_runs,
                  jnum(d.run_seconds), jnum(d.idle_seconds), jnum(d.wall_seconds), d.ranks, costs),
      true);
   return s + "}\n";
@@ -345,6 +347,12 @@ std::string markdown(const Diagnosis& d) {
     m << fmt::format(
         "{} of the forward runs failed (their parameters were rejected); the first: {}.\n\n",
         d.failed_runs, d.first_failure);
+  if (d.continued_runs > 0)
+    m << fmt::format(
+        "{} of the forward runs compressed StVK voxels below the principal stretch {} (StVK "
+        "softens there towards its compressive limit point; the stress was continued "
+        "linearly).\n\n",
+        d.continued_runs, kStvkContinuedStretch);
   if (!d.phases.empty()) {
     m << "| phase | forward runs | wall s |\n|---|---:|---:|\n";
     for (const auto& p : d.phases)

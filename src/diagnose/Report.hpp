@@ -126,6 +126,7 @@ struct Diagnosis {
   long runs_reused = 0;       //!< runs asked for again and taken from the evaluator's memo
   long failed_runs = 0;       //!< forward runs that failed (Evaluator::failed)
   std::string first_failure;  //!< the first failed run's reason
+  long continued_runs = 0;    //!< runs with StVK's stress continued (Evaluator::continued)
   double wall_seconds = 0, run_seconds = 0;
   double idle_seconds = 0;  //!< rank seconds in batches of runs not spent running (Evaluator)
   //! Forward runs and wall seconds by phase of the method, in order.
