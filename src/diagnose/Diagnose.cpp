@@ -467,6 +467,7 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
       Rc.voxels = C.model->voxels();
       Rc.channels = C.channels;
       Rc.runs = cev.runs(), Rc.run_seconds = cev.run_seconds();
+      Rc.failed = cev.failed(), Rc.first_failure = cev.first_failure();
       Rc.idle_seconds = cev.idle_seconds();
       if (got[0].ok || got[1].ok) measure_closest(C, tried, got, 1.0, Rc);
       log::info(
@@ -480,6 +481,7 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
         return Rc;
       }
       R.runs = Rc.runs, R.run_seconds = Rc.run_seconds, R.idle_seconds = Rc.idle_seconds;
+      R.failed = Rc.failed, R.first_failure = Rc.first_failure;
     }
   }
   // 2. Voxels of h/2.
@@ -510,12 +512,18 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
   std::vector<Physics> tried = {p0, p1};
   std::vector<Prediction> got = fev.run(tried);
   const long coarse_runs = R.runs;
+  // The fine runs' failures join the coarse ones'.
+  auto add_failures = [&]() {
+    if (fev.failed() > 0 && R.failed == 0) R.first_failure = fev.first_failure();
+    R.failed += fev.failed();
+  };
   const double coarse_seconds = R.run_seconds, coarse_idle = R.idle_seconds;
   if (!got[0].ok || !got[1].ok) {
     R.skipped =
         "the baseline fails on the finer voxels: " + (got[0].ok ? got[1].failure : got[0].failure);
     R.runs = coarse_runs + fev.runs(), R.run_seconds = coarse_seconds + fev.run_seconds();
     R.idle_seconds = coarse_idle + fev.idle_seconds();
+    add_failures();
     return R;
   }
   constexpr double kScale = 4.0 / 3.0;  // second order: e_h = 4/3 (u_h - u_h/2)
@@ -548,6 +556,7 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
   R.runs = coarse_runs + fev.runs();
   R.run_seconds = coarse_seconds + fev.run_seconds();
   R.idle_seconds = coarse_idle + fev.idle_seconds();
+  add_failures();
   R.done = true;
   log::info(
       "discretisation check (h/2 rerun, {} voxels, E {} {:.5g} Pa): error of the h model "
@@ -2424,8 +2433,9 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   phase_done("signatures");
   D.runs = ev.runs() + D.refinement.runs;
   D.runs_reused = ev.reused();
-  D.failed_runs = ev.failed();
-  D.first_failure = ev.first_failure();
+  // The discretisation check's own runs (its evaluators) count with the rest.
+  D.failed_runs = ev.failed() + D.refinement.failed;
+  D.first_failure = ev.failed() > 0 ? ev.first_failure() : D.refinement.first_failure;
   D.continued_runs = ev.continued();
   if (D.continued_runs > 0)
     log::info(

@@ -66,6 +66,8 @@ struct RefinementCheck {
   //! difference (safety factor 3) bounds the error, and no h/2 run was needed.
   bool coarse = false;
   long runs = 0;
+  long failed = 0;            //!< of those runs, the failed ones (Evaluator::failed)
+  std::string first_failure;  //!< the first one's reason
   double run_seconds = 0, idle_seconds = 0;
 };
 
