@@ -551,7 +551,7 @@ end = 0.3
   const Trace a = vec.run(p, r);
   ASSERT_TRUE(a.ok) << a.failure;
   EXPECT_GE(0.002 * static_cast<double>(a.steps), 0.4);  // to the end
-  EXPECT_GT(a.continued_points, 0);  // the continuation acted
+  EXPECT_GT(a.continued_points, 0);                      // the continuation acted
   const Trace b = scalar.run(p, r);
   ASSERT_TRUE(b.ok) << b.failure;
   EXPECT_EQ(a.continued_points, b.continued_points);
