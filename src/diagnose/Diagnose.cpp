@@ -425,6 +425,13 @@ void measure_closest(const CheckLevel& L, const std::vector<Physics>& tried,
   R.rms = L.any_position ? scale * rms(L.fobs, got[best], L.scored_in) : std::nan("");
 }
 
+//! An evaluator's runs, their seconds and their failures, added to a check's cost.
+void add_cost(RefinementCheck& R, const Evaluator& e) {
+  R.runs += e.runs(), R.run_seconds += e.run_seconds(), R.idle_seconds += e.idle_seconds();
+  if (R.failed == 0 && e.failed() > 0) R.first_failure = e.first_failure();
+  R.failed += e.failed();
+}
+
 }  // namespace
 
 RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observations& obs,
@@ -466,9 +473,7 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
       Rc.voxel_size = 2 * cfg.voxel_size;
       Rc.voxels = C.model->voxels();
       Rc.channels = C.channels;
-      Rc.runs = cev.runs(), Rc.run_seconds = cev.run_seconds();
-      Rc.failed = cev.failed(), Rc.first_failure = cev.first_failure();
-      Rc.idle_seconds = cev.idle_seconds();
+      add_cost(Rc, cev);
       if (got[0].ok || got[1].ok) measure_closest(C, tried, got, 1.0, Rc);
       log::info(
           "discretisation check, 2h grid ({} voxels, E {:.5g} Pa): error of the h model at "
@@ -480,8 +485,7 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
         Rc.done = Rc.upper_bound = Rc.coarse = true;
         return Rc;
       }
-      R.runs = Rc.runs, R.run_seconds = Rc.run_seconds, R.idle_seconds = Rc.idle_seconds;
-      R.failed = Rc.failed, R.first_failure = Rc.first_failure;
+      add_cost(R, cev);
     }
   }
   // 2. Voxels of h/2.
@@ -511,19 +515,10 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
   p1.youngs_modulus *= 1 + kStep;
   std::vector<Physics> tried = {p0, p1};
   std::vector<Prediction> got = fev.run(tried);
-  const long coarse_runs = R.runs;
-  // The fine runs' failures join the coarse ones'.
-  auto add_failures = [&]() {
-    if (fev.failed() > 0 && R.failed == 0) R.first_failure = fev.first_failure();
-    R.failed += fev.failed();
-  };
-  const double coarse_seconds = R.run_seconds, coarse_idle = R.idle_seconds;
   if (!got[0].ok || !got[1].ok) {
     R.skipped =
         "the baseline fails on the finer voxels: " + (got[0].ok ? got[1].failure : got[0].failure);
-    R.runs = coarse_runs + fev.runs(), R.run_seconds = coarse_seconds + fev.run_seconds();
-    R.idle_seconds = coarse_idle + fev.idle_seconds();
-    add_failures();
+    add_cost(R, fev);
     return R;
   }
   constexpr double kScale = 4.0 / 3.0;  // second order: e_h = 4/3 (u_h - u_h/2)
@@ -553,10 +548,7 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
     got.insert(got.end(), more.begin(), more.end());
     measure_closest(F, tried, got, kScale, R);
   }
-  R.runs = coarse_runs + fev.runs();
-  R.run_seconds = coarse_seconds + fev.run_seconds();
-  R.idle_seconds = coarse_idle + fev.idle_seconds();
-  add_failures();
+  add_cost(R, fev);
   R.done = true;
   log::info(
       "discretisation check (h/2 rerun, {} voxels, E {} {:.5g} Pa): error of the h model "

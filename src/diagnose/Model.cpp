@@ -672,7 +672,9 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
 
   // Stress of the elastic law, and of the plastic return map from the state at the start of
   // the step (Gauss point g): P, the Kirchhoff stress, the trial state and Fp^-1.
-  auto elastic_stress = [&](const double F[9], double P[9]) {
+  // elastic_stress returns whether StVK's screen sent F to the continuation.
+  auto elastic_stress = [&](const double F[9], double P[9]) -> bool {
+    bool continued = false;
     materials::Mat3 Fm, Pm;
     std::copy(F, F + 9, Fm.a);
     if constexpr (std::is_same_v<Law, materials::FixedCorotated>) {
@@ -685,10 +687,12 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
       Pm = law.pk1(Fm);
       if constexpr (std::is_same_v<Law, materials::StVK>) {
         constexpr double sc = kStvkContinuedStretch;
-        if (!materials::StVK::stretches_above(Fm.a, sc)) law.pk1_continued(Fm, sc, Pm);
+        continued = !materials::StVK::stretches_above(Fm.a, sc);
+        if (continued) law.pk1_continued(Fm, sc, Pm);
       }
     }
     std::copy(Pm.a, Pm.a + 9, P);
+    return continued;
   };
   auto plastic_stress = [&](std::size_t g, const double F[9], double P[9], double tau[9],
                             double* state, double* fp_inv_out) -> bool {
@@ -795,10 +799,7 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
         if (plastic) {
           if (!plastic_stress(g, F, P, tau, &pstate_new[g], &fp_inv_new[9 * g])) return false;
         } else {
-          elastic_stress(F, P);
-          if constexpr (std::is_same_v<Law, materials::StVK>)
-            if (with_mises && !materials::StVK::stretches_above(F, kStvkContinuedStretch))
-              ++step_continued;
+          if (elastic_stress(F, P) && with_mises) ++step_continued;
         }
         if (visco) {
           // Relaxing part q: dq/dt = (g P_el - q) / tau (backward Euler); stress P_el - q.
