@@ -1384,7 +1384,10 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         }
         const auto probe_d = ev.run(batch_d);
         batch_d.clear();
-        // Per region, where log omega (piecewise linear in the grid's z) crosses the recorded.
+        // Per region, where log omega (piecewise linear in the grid's z) crosses the recorded
+        // one: ratio_crossings on points whose "ratio" is log omega (interpolated, or with no
+        // crossing extrapolated at most one grid step: the grid's soft end can fail under the
+        // load, the plate's root at 0.2).
         struct DeckCross {
           std::vector<double> z;
           double slope = 0;  // d log omega / d z there
@@ -1392,50 +1395,28 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         std::vector<DeckCross> cross;
         const std::size_t ng = grid.size();
         for (std::size_t ri = 0; ri < regions.size(); ++ri) {
-          std::vector<std::pair<double, double>> pts;  // (z, log omega)
+          std::vector<ModePoint> pts;
+          std::string line;
           for (std::size_t g = 0; g < ng; ++g) {
             const Prediction& p = probe_d[ri * ng + g];
-            if (p.ok)
-              pts.push_back({zd[ri * ng + g][2], std::log(dominant_omega(obs, p.y, t_free))});
+            if (!p.ok) continue;
+            ModePoint mp;
+            mp.ok = true;
+            mp.zp = zd[ri * ng + g][2];
+            mp.ratio = mp.log_w1 = std::log(dominant_omega(obs, p.y, t_free));
+            pts.push_back(mp);
+            line += fmt::format(" {:.3g}: {:.4g}", from_z(specs[0], mp.zp), std::exp(mp.ratio));
           }
-          std::sort(pts.begin(), pts.end());
-          std::string line;
-          for (const auto& [zp, lw] : pts)
-            line += fmt::format(" {:.3g}: {:.4g}", from_z(specs[0], zp), std::exp(lw));
           log::info("    deck probes [{:.3g} {:.3g} {:.3g}]-[{:.3g} {:.3g} {:.3g}], omega at {}{}",
                     regions[ri].lo[0], regions[ri].lo[1], regions[ri].lo[2], regions[ri].hi[0],
                     regions[ri].hi[1], regions[ri].hi[2], specs[0].name, line);
-          auto add = [&](const std::pair<double, double>& a, const std::pair<double, double>& b,
-                         double zp) {
-            DeckCross x;
-            x.z = zd[ri * ng];
-            x.z[2] = std::clamp(zp, pr.lo[2], pr.hi[2]);
-            x.slope = (b.second - a.second) / (b.first - a.first);
-            cross.push_back(x);
+          for (const Crossing& x : ratio_crossings(pts, lw_obs)) {
+            DeckCross d;
+            d.z = zd[ri * ng];
+            d.z[2] = std::clamp(x.zp, pr.lo[2], pr.hi[2]);
+            d.slope = x.slope_r;
+            cross.push_back(d);
             deck_region.push_back(ri);
-          };
-          const std::size_t n0 = cross.size();
-          for (std::size_t j = 0; j + 1 < pts.size(); ++j) {
-            const double d0 = pts[j].second - lw_obs, d1 = pts[j + 1].second - lw_obs;
-            if ((d0 <= 0) == (d1 <= 0) || !(pts[j + 1].first > pts[j].first)) continue;
-            add(pts[j], pts[j + 1],
-                pts[j].first + d0 / (d0 - d1) * (pts[j + 1].first - pts[j].first));
-          }
-          // No crossing: the line through the two end points nearest to the recorded
-          // frequency, followed at most one grid step outwards (the grid's soft end can fail
-          // under the load: the plate's root at 0.2).
-          if (cross.size() == n0 && pts.size() >= 2) {
-            const bool high =
-                std::abs(pts.back().second - lw_obs) < std::abs(pts[0].second - lw_obs);
-            const auto& end = high ? pts.back() : pts[0];
-            const auto& next = high ? pts[pts.size() - 2] : pts[1];
-            const double step = end.first - next.first, slope = (end.second - next.second) / step;
-            if (slope != 0 && std::isfinite(slope)) {
-              const double dz = (lw_obs - end.second) / slope;
-              if (dz * step > 0)
-                add(next, end,
-                    end.first + std::copysign(std::min(std::abs(dz), std::abs(step)), step));
-            }
           }
         }
         for (std::size_t q = 0; q < cross.size(); ++q) {
