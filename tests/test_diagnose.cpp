@@ -1609,10 +1609,10 @@ TEST(DiagnoseEndToEnd, FindsHiddenDampingOnAnLBracket) {
 
 TEST(DiagnoseEndToEnd, FindsASoftRootThatTheCalibrationTookIntoE) {
   // A small plate (8x4x2 voxels) whose root quarter is at 0.3 E, pulled in and out of plane
-  // and released. The calibration answers the soft root with a softer body (E far below the
-  // deck's), where no root stiffness is in phase with the recording; the refit must also
-  // start from the deck's E, with the root's factor matched on the recorded frequency (the
-  // blind CalculiX plate's soft root was a miss until it did).
+  // and released. The calibration answers the soft root with nu (0.3 -> 0.0; on the blind
+  // CalculiX plate, with E: 3.9e5 against 9.7e5), and the refit from there ends at E -34 %,
+  // factor +75 %; it must also start from the deck's E and nu, with the root's factor matched
+  // on the recorded frequency (the blind plate's soft root was a miss until it did).
   const char* text = R"(
 [simulation]
 name = "plate"
