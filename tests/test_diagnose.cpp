@@ -1436,6 +1436,11 @@ TEST(DiagnoseEndToEnd, FindsHiddenMassDampingFromMarkersAndAccelerometers) {
   ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"noise_estimate_recording\": ([-0-9.e+]+)")));
   EXPECT_LE(noise_used, std::stod(mt[1].str()));
   EXPECT_NEAR(noise_used / 2e-5, 1.0, 0.25);
+  // The accelerometers' weight counts the missing damping's motion as noise (the calibrated
+  // residual holds it); the fitted model's residual gives the true sd back.
+  ASSERT_TRUE(std::regex_search(
+      js, mt, std::regex("\"noise_estimate_acceleration_fitted\": ([-0-9.e+]+)")));
+  EXPECT_NEAR(std::stod(mt[1].str()) / 0.02, 1.0, 0.25);
   // The cost by phase accounts for every forward run, and the refits appear in it.
   ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"forward_runs\": ([0-9]+)")));
   const long total = std::stol(mt[1].str());

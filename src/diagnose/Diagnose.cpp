@@ -2248,6 +2248,15 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     D.youngs_modulus = best->youngs_modulus;
     D.poisson_ratio = best->poisson_ratio;
     if (D.effect == "heterogeneity") D.has_region = true, D.region = ctx.region;
+  }
+  if (D.fitted_pred.ok) {
+    residual_noise(obs, D.fitted_pred, D.noise_fitted_position, D.noise_fitted_acceleration);
+    log::info("noise on the fitted model's residual: {:.3g} m{}", D.noise_fitted_position,
+              std::isfinite(D.noise_fitted_acceleration)
+                  ? fmt::format(", {:.3g} m/s^2", D.noise_fitted_acceleration)
+                  : std::string());
+  }
+  if (best) {
     // Ambiguous when the runner-up also passes and either Vuong's test on the held-out data
     // cannot tell it from the winner (z < 2: their fits differ by less than the noise can
     // resolve) or its gap is below the winner's unexplained misfit. Vuong's test resolves ever

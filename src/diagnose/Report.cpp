@@ -124,6 +124,8 @@ std::string json(const Diagnosis& d) {
   kv("noise_estimate", jnum(d.noise_position));
   kv("noise_estimate_recording", jnum(d.noise_recording_position));
   kv("noise_estimate_acceleration", jnum(d.noise_acceleration));
+  kv("noise_estimate_fitted", jnum(d.noise_fitted_position));
+  kv("noise_estimate_acceleration_fitted", jnum(d.noise_fitted_acceleration));
   kv("misfit_tests",
      fmt::format("{{\"chi2_per_dof\": {}, \"whiteness_p\": {}, \"lag1\": {}, "
                  "\"misfit\": {}}}",
@@ -244,6 +246,17 @@ std::string markdown(const Diagnosis& d) {
       "absorb that.\n\n",
       d.noise_position, d.noise_recording_position, d.youngs_modulus, d.youngs_nominal,
       d.poisson_ratio, d.poisson_nominal, d.density, d.youngs_modulus / d.density);
+  if (std::isfinite(d.noise_fitted_position) || std::isfinite(d.noise_fitted_acceleration))
+    m << fmt::format(
+        "Noise on the fitted model's residual (the same local cubics): {} m{}. The weights "
+        "above were fixed before any effect was fitted; this is the better estimate where an "
+        "effect was missing.\n\n",
+        std::isfinite(d.noise_fitted_position) ? fmt::format("{:.3g}", d.noise_fitted_position)
+                                               : std::string("-"),
+        std::isfinite(d.noise_fitted_acceleration)
+            ? fmt::format(", accelerations {:.3g} m/s^2 (the weights': {:.3g})",
+                          d.noise_fitted_acceleration, d.noise_acceleration)
+            : std::string());
   m << fmt::format(
       "Numerical dissipation check: rerunning at dt/2 changes the late-time amplitude by {:.3g} "
       "noise sd (the trapezoidal rule adds no damping) and the late-time motion by {:.3g} noise "

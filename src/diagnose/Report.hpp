@@ -112,6 +112,11 @@ struct Diagnosis {
   //! The recording's own noise estimate of the markers (local cubics), before the calibrated
   //! residual's.
   double noise_recording_position = 0;
+  //! The same estimate on the residual of the fitted model (the selected effect's refit, else
+  //! the calibrated baseline): where an effect was missing, the calibrated residual still holds
+  //! its motion, which the cubics count as noise (NaN where there are no such channels).
+  double noise_fitted_position = std::numeric_limits<double>::quiet_NaN();
+  double noise_fitted_acceleration = std::numeric_limits<double>::quiet_NaN();
   double chi2_red = 0, whiteness_p = 1, lag1 = 0;
   bool misfit = false;
   double dt = 0, numerical_change = 0;  //!< amplitude change of the dt/2 rerun, noise units
