@@ -1329,9 +1329,22 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       // started there stays in that valley.
       // Effects whose region the map may miss also start from their start_regions().
       const double w_cal = dominant_omega(obs, base.pred.y, t_free);
+      // A start region that is the located box (to a millionth of a voxel: the two are
+      // computed differently) is not added twice; the located box then also starts at the
+      // deck's nu, as the start region would have (before, the small plate's located root
+      // quarter ran every probe and race lane twice).
       std::vector<BoxRegion> regions = {ctx.region};
-      for (const BoxRegion& b : e.start_regions(ctx))
-        if (!(b.lo == ctx.region.lo && b.hi == ctx.region.hi)) regions.push_back(b);
+      bool located_is_start = false;
+      for (const BoxRegion& b : e.start_regions(ctx)) {
+        bool same = true;
+        for (int a = 0; a < 3; ++a)
+          same = same && std::abs(b.lo[a] - ctx.region.lo[a]) < 1e-6 * model.h() &&
+                 std::abs(b.hi[a] - ctx.region.hi[a]) < 1e-6 * model.h();
+        if (same)
+          located_is_start = true;
+        else
+          regions.push_back(b);
+      }
       const BoxRegion located = ctx.region;
       std::vector<std::vector<double>> starts;
       std::vector<std::size_t> start_region;
@@ -1339,7 +1352,9 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       for (std::size_t ri = 0; ri < regions.size(); ++ri) {
         ctx.region = regions[ri];
         std::vector<double> nus = {ri == 0 ? z0[1] : D.poisson_nominal};
-        if (ri == 0 && std::abs(D.poisson_nominal - z0[1]) > 0.02) nus.push_back(D.poisson_nominal);
+        if (ri == 0 && (std::abs(D.poisson_nominal - z0[1]) > 0.02 ||
+                        (located_is_start && D.poisson_nominal != z0[1])))
+          nus.push_back(D.poisson_nominal);
         for (double nu : nus)
           for (double f : grid) {
             std::vector<double> z = z0;
@@ -1369,7 +1384,16 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       if (regions.size() > 1 && (std::abs(z0[0] - std::log(D.youngs_nominal)) > kDeckStartShiftE ||
                                  std::abs(z0[1] - D.poisson_nominal) > kDeckStartShiftNu)) {
         const double lw_obs = std::log(ctx.omega);
+        // A probe whose grid start ran at the calibrated E with the deck's nu (every start
+        // region's; the located one's where the calibration moved nu by more than 0.02) is not
+        // rerun: a linear body's frequencies scale as sqrt(E) at a fixed factor, nu and
+        // density, so its omega is taken from that run, scaled. The crossing found is run
+        // anyway (below), so any departure (the load's nonlinearity) costs only the secant's
+        // correction. The others (a grid start that failed, at a softer E, or none at the
+        // deck's nu) are run.
         std::vector<std::vector<double>> zd;
+        std::vector<double> lw_d;  // log omega per (region, factor); NaN: failed
+        std::vector<std::size_t> to_run;
         std::vector<Physics> batch_d;
         for (std::size_t ri = 0; ri < regions.size(); ++ri) {
           ctx.region = regions[ri];
@@ -1378,11 +1402,26 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
             z[0] = std::clamp(std::log(D.youngs_nominal), pr.lo[0], pr.hi[0]);
             z[1] = D.poisson_nominal;
             z[2] = to_z(specs[0], std::clamp(f, specs[0].lo, specs[0].hi));
+            double lw = std::nan("");
+            for (std::size_t k = 0; k < starts.size() && std::isnan(lw); ++k)
+              if (start_region[k] == ri && starts[k][1] == z[1] && starts[k][2] == z[2] &&
+                  probe_s[k].ok)
+                lw = std::log(dominant_omega(obs, probe_s[k].y, t_free)) +
+                     0.5 * (z[0] - starts[k][0]);
+            if (std::isnan(lw)) {
+              to_run.push_back(zd.size());
+              batch_d.push_back(pr.physics(z));
+            }
             zd.push_back(z);
-            batch_d.push_back(pr.physics(z));
+            lw_d.push_back(lw);
           }
         }
-        const auto probe_d = ev.run(batch_d);
+        {
+          const auto probe_d = ev.run(batch_d);
+          for (std::size_t q = 0; q < to_run.size(); ++q)
+            if (probe_d[q].ok)
+              lw_d[to_run[q]] = std::log(dominant_omega(obs, probe_d[q].y, t_free));
+        }
         batch_d.clear();
         // Per region, where log omega (piecewise linear in the grid's z) crosses the recorded
         // one: ratio_crossings on points whose "ratio" is log omega (interpolated, or with no
@@ -1398,18 +1437,22 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
           std::vector<ModePoint> pts;
           std::string line;
           for (std::size_t g = 0; g < ng; ++g) {
-            const Prediction& p = probe_d[ri * ng + g];
-            if (!p.ok) continue;
+            const std::size_t i = ri * ng + g;
+            if (std::isnan(lw_d[i])) continue;
             ModePoint mp;
             mp.ok = true;
-            mp.zp = zd[ri * ng + g][2];
-            mp.ratio = mp.log_w1 = std::log(dominant_omega(obs, p.y, t_free));
+            mp.zp = zd[i][2];
+            mp.ratio = mp.log_w1 = lw_d[i];
             pts.push_back(mp);
-            line += fmt::format(" {:.3g}: {:.4g}", from_z(specs[0], mp.zp), std::exp(mp.ratio));
+            const bool ran = std::find(to_run.begin(), to_run.end(), i) != to_run.end();
+            line += fmt::format(" {:.3g}: {:.4g}{}", from_z(specs[0], mp.zp), std::exp(mp.ratio),
+                                ran ? "" : "s");
           }
-          log::info("    deck probes [{:.3g} {:.3g} {:.3g}]-[{:.3g} {:.3g} {:.3g}], omega at {}{}",
-                    regions[ri].lo[0], regions[ri].lo[1], regions[ri].lo[2], regions[ri].hi[0],
-                    regions[ri].hi[1], regions[ri].hi[2], specs[0].name, line);
+          log::info(
+              "    deck probes [{:.3g} {:.3g} {:.3g}]-[{:.3g} {:.3g} {:.3g}], omega at {}{} (s: "
+              "scaled from the calibrated E's run)",
+              regions[ri].lo[0], regions[ri].lo[1], regions[ri].lo[2], regions[ri].hi[0],
+              regions[ri].hi[1], regions[ri].hi[2], specs[0].name, line);
           for (const Crossing& x : ratio_crossings(pts, lw_obs)) {
             DeckCross d;
             d.z = zd[ri * ng];
