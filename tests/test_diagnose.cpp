@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <random>
 #include <regex>
 #include <sstream>
@@ -1491,6 +1492,38 @@ start = 0
 end = 0.1
 )";
 
+//! The region of report.json text `js` as voxels of size h (centres h/2 + k h, below `extent`,
+//! the `solid` ones only): intersection over union with the voxels `truth` marks; -1 when the
+//! report has no region. `label` names the case in the printed count.
+double region_voxel_iou(const std::string& js, double h, const std::array<double, 3>& extent,
+                        const std::function<bool(const std::array<double, 3>&)>& solid,
+                        const std::function<bool(const std::array<double, 3>&)>& truth,
+                        const char* label) {
+  std::smatch mt;
+  const std::string num = "([-0-9.e+]+)";
+  if (!std::regex_search(js, mt,
+                         std::regex("\"region\": \\[\\[" + num + ", " + num + ", " + num +
+                                    "\\], \\[" + num + ", " + num + ", " + num + "\\]\\]")))
+    return -1;
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a)
+    lo[a] = std::stod(mt[1 + a].str()), hi[a] = std::stod(mt[4 + a].str());
+  int inter = 0, uni = 0;
+  for (double x = 0.5 * h; x < extent[0]; x += h)
+    for (double y = 0.5 * h; y < extent[1]; y += h)
+      for (double z = 0.5 * h; z < extent[2]; z += h) {
+        const std::array<double, 3> c{x, y, z};
+        if (!solid(c)) continue;
+        bool f = true;
+        for (int a = 0; a < 3; ++a) f = f && c[a] >= lo[a] && c[a] <= hi[a];
+        const bool t = truth(c);
+        inter += t && f;
+        uni += t || f;
+      }
+  std::printf("%s: voxel IoU %d / %d\n", label, inter, uni);
+  return uni > 0 ? static_cast<double>(inter) / uni : 0.0;
+}
+
 //! A recording of the L bracket made by the model itself from `truth` (6 markers on both
 //! legs at 200 Hz, noise 1e-5 m), diagnosed with `opt` (its recordings and output directory
 //! set here); report.json on rank 0, empty elsewhere.
@@ -1679,24 +1712,11 @@ end = 0.1
   EXPECT_NEAR(std::stod(mt[1].str()) / 0.3, 1.0, 0.2);
   ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"youngs_modulus\": " + num)));
   EXPECT_NEAR(std::stod(mt[1].str()) / truth.youngs_modulus, 1.0, 0.05);
-  ASSERT_TRUE(std::regex_search(js, mt,
-                                std::regex("\"region\": \\[\\[" + num + ", " + num + ", " + num +
-                                           "\\], \\[" + num + ", " + num + ", " + num + "\\]\\]")));
   // The region as voxels: intersection over union against the root quarter.
-  int inter = 0, uni = 0;
-  for (double x = 0.005; x < 0.08; x += 0.01)
-    for (double y = 0.005; y < 0.04; y += 0.01)
-      for (double z = 0.005; z < 0.02; z += 0.01) {
-        bool f = true;
-        const double c[3] = {x, y, z};
-        for (int a = 0; a < 3; ++a)
-          f = f && c[a] >= std::stod(mt[1 + a].str()) && c[a] <= std::stod(mt[4 + a].str());
-        const bool t = x < 0.02;
-        inter += t && f;
-        uni += t || f;
-      }
-  std::printf("plate soft root: voxel IoU %d / %d\n", inter, uni);
-  EXPECT_GE(static_cast<double>(inter) / uni, 0.5);
+  const double iou = region_voxel_iou(
+      js, 0.01, {0.08, 0.04, 0.02}, [](const std::array<double, 3>&) { return true; },
+      [](const std::array<double, 3>& c) { return c[0] < 0.02; }, "plate soft root");
+  EXPECT_GE(iou, 0.5);
 }
 
 TEST(DiagnoseEndToEnd, FindsASoftBlockInAnLBracket) {
@@ -1722,29 +1742,11 @@ TEST(DiagnoseEndToEnd, FindsASoftBlockInAnLBracket) {
   if (js.empty()) return;  // not rank 0
   EXPECT_NE(js.find("\"verdict\": \"missing_physics\""), std::string::npos) << js.substr(0, 600);
   EXPECT_NE(js.find("\"effect\": \"heterogeneity\""), std::string::npos) << js.substr(0, 600);
-  std::smatch mt;
-  const std::string num = "([-0-9.e+]+)";
-  ASSERT_TRUE(std::regex_search(js, mt,
-                                std::regex("\"region\": \\[\\[" + num + ", " + num + ", " + num +
-                                           "\\], \\[" + num + ", " + num + ", " + num + "\\]\\]")));
   // The region as voxels: intersection over union of the voxels whose centres lie in each box.
-  auto inside = [&](const std::array<double, 3>& c, int off) {
-    for (int a = 0; a < 3; ++a)
-      if (c[a] < std::stod(mt[off + a].str()) || c[a] > std::stod(mt[off + 3 + a].str()))
-        return false;
-    return true;
-  };
-  int inter = 0, uni = 0;
-  for (double x = 0.005; x < 0.08; x += 0.01)
-    for (double y = 0.005; y < 0.07; y += 0.01)
-      for (double z = 0.005; z < 0.02; z += 0.01) {
-        const bool solid = y < 0.02 || x > 0.06;
-        const bool t = x > 0.02 && x < 0.04 && y < 0.02;
-        const bool f = inside({x, y, z}, 1);
-        if (!solid) continue;
-        inter += t && f;
-        uni += t || f;
-      }
-  std::printf("L bracket soft block: voxel IoU %d / %d\n", inter, uni);
-  EXPECT_GE(static_cast<double>(inter) / uni, 0.5);
+  const double iou = region_voxel_iou(
+      js, 0.01, {0.08, 0.07, 0.02},
+      [](const std::array<double, 3>& c) { return c[1] < 0.02 || c[0] > 0.06; },
+      [](const std::array<double, 3>& c) { return c[0] > 0.02 && c[0] < 0.04 && c[1] < 0.02; },
+      "L bracket soft block");
+  EXPECT_GE(iou, 0.5);
 }

@@ -257,6 +257,7 @@ struct TaoContext {
   //! The linearisation point whose line search fell below the step tolerance.
   std::vector<double> z_converged;
   long max_runs = 1000;  //!< forward runs one fit may spend
+  int max_iterations = 0;
 };
 
 std::vector<double> to_std(Vec X) {
@@ -361,7 +362,20 @@ PetscErrorCode tao_convergence(Tao tao, void* ctx) {
     return 0;
   }
   c.stalls = its > 0 && c.f_prev - f < 1e-3 * c.f_prev ? c.stalls + 1 : 0;
-  if (its >= kAbandonAfter && c.chi2_best > c.prob->abandon_chi2 && f > 0.5 * c.f_prev) {
+  // Projected: chi2 times the last iteration's ratio to the power of the iterations left.
+  const double projected =
+      c.f_prev > 0 ? c.chi2_best * std::pow(std::min(1.0, f / c.f_prev),
+                                            std::max(0, c.max_iterations - static_cast<int>(its)))
+                   : 0.0;
+  const bool stalled_far = its >= kAbandonAfter && c.chi2_best > c.prob->compete_chi2 &&
+                           projected > c.prob->compete_chi2;
+  if ((its >= kAbandonAfter && c.chi2_best > c.prob->abandon_chi2 && f > 0.5 * c.f_prev) ||
+      stalled_far) {
+    if (stalled_far)
+      log::info(
+          "    fit: given up: chi2 {:.6g}, at this iteration's rate {:.4g} at the limit "
+          "(needs < {:.6g})",
+          c.chi2_best, projected, c.prob->compete_chi2);
     c.abandoned = true;
     PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_USER));
     return 0;
@@ -480,6 +494,7 @@ LsqResult least_squares(Evaluator& ev, const LsqProblem& prob, std::vector<doubl
   evaluate_at(c, z0);
   c.scale = 1.0 / std::max(0.5 * c.r_cached.squaredNorm(), 1e-300);
   c.max_runs = static_cast<long>((n + 2) * (max_iterations + 2));
+  c.max_iterations = max_iterations;
   Vec x, xl, xu;
   Mat H;
   Tao tao;
@@ -589,6 +604,7 @@ LsqResult window_fit(Evaluator& ev, const LsqProblem& prob, const std::vector<do
   LsqProblem pw = prob;
   pw.mask = &mask;
   pw.abandon_chi2 = std::numeric_limits<double>::infinity();  // set for the whole recording
+  pw.compete_chi2 = std::numeric_limits<double>::infinity();
   struct Horizon {  // runs stop at w for this fit only, whatever way it ends
     Evaluator& ev;
     Horizon(Evaluator& e, double t) : ev(e) { ev.set_horizon(t); }

@@ -134,6 +134,10 @@ struct LsqProblem {
   //! halves per iteration, is given up (it cannot compete with a fit that already reached a
   //! tenth of it).
   double abandon_chi2 = std::numeric_limits<double>::infinity();
+  //! A fit above this after kAbandonAfter iterations is also given up when its last
+  //! iteration's rate of decrease, kept over the iterations it has left, would not bring it
+  //! below this (nearly stalled far from a fit that passes).
+  double compete_chi2 = std::numeric_limits<double>::infinity();
 };
 
 struct LsqResult {
@@ -145,7 +149,7 @@ struct LsqResult {
   int iterations = 0;
   long runs = 0;
   std::string reason;      //!< TAO's converged reason
-  bool abandoned = false;  //!< stopped by LsqProblem::abandon_chi2
+  bool abandoned = false;  //!< stopped by LsqProblem::abandon_chi2 or compete_chi2
   long skipped = 0;        //!< line-search points not run: below the step tolerance
 };
 
