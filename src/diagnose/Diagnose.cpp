@@ -1396,12 +1396,11 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
                                  std::abs(z0[1] - D.poisson_nominal) > kDeckStartShiftNu)) {
         const double lw_obs = std::log(ctx.omega);
         // A probe whose grid start ran at the calibrated E with the deck's nu (every start
-        // region's; the located one's where the calibration moved nu by more than 0.02) is not
-        // rerun: a linear body's frequencies scale as sqrt(E) at a fixed factor, nu and
-        // density, so its omega is taken from that run, scaled. The crossing found is run
-        // anyway (below), so any departure (the load's nonlinearity) costs only the secant's
-        // correction. The others (a grid start that failed, at a softer E, or none at the
-        // deck's nu) are run.
+        // region's; the located box's where it also starts at the deck's nu) is not rerun: a linear
+        // body's frequencies scale as sqrt(E) at a fixed factor, nu and density, so its omega is
+        // taken from that run, scaled. The crossing found is run anyway (below), so any departure
+        // (the load's nonlinearity) costs only the secant's correction. The others (a grid start
+        // that failed, at a softer E, or none at the deck's nu) are run.
         std::vector<std::vector<double>> zd;
         std::vector<double> lw_d;  // log omega per (region, factor); NaN: failed
         std::vector<std::size_t> to_run;
