@@ -8,6 +8,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -340,7 +341,7 @@ int dispatch(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   diag->add_option("--out,-o", dg.out_dir, "Output directory for report.json, report.md, PNGs")
       ->required();
-  diag->add_option(
+  CLI::Option* dg_effects_opt = diag->add_option(
       "--effects", dg_effects, "Comma-separated candidate effects (default: all of " + [] {
         std::string s;
         for (const auto& n : diagnose::effect_names()) s += (s.empty() ? "" : ",") + n;
@@ -374,7 +375,12 @@ int dispatch(int argc, char** argv) {
     const Config cfg = load_deck(dg_deck, dg_sets);
     std::stringstream ss(dg_effects);
     for (std::string e; std::getline(ss, e, ',');)
-      if (!e.empty()) dg.effects.push_back(e);
+      if (!e.empty() && std::find(dg.effects.begin(), dg.effects.end(), e) == dg.effects.end())
+        dg.effects.push_back(e);  // each once: a repeated name would be refitted twice
+    // An explicit list that names nothing is a mistake, not a request for the whole library.
+    if (dg_effects_opt->count() > 0 && dg.effects.empty())
+      throw InputError("command line: --effects '" + dg_effects +
+                       "' names no effect (a comma-separated list of library effects)");
     dg.refinement_check = !dg_no_refinement;
     return diagnose::run_diagnose(MPI_COMM_WORLD, cfg, dg);
   }
