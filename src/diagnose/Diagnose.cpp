@@ -80,6 +80,11 @@ constexpr double kDeckStartShiftE = 0.15, kDeckStartShiftNu = 0.05;
 //! recorded one (the plate's soft root: 1.7 % before its secant step; the other quarters,
 //! extrapolated past the grid's soft end, 32-43 % off or failed).
 constexpr double kDeckStartReach = 0.1;
+//! The selected fit's time-step check (TimeStepCheck): its parameters depend on dt when its
+//! late-time motion moves by more than this many times the deck's own dt/2 difference (and
+//! over one noise sd). The blind beams' decks move by 0.3-5 noise sd; a fit with ground
+//! contact on the 20x4x4 beam by 13 (the penalty rings at frequencies no step resolves).
+constexpr double kTimeStepFlag = 4.0;
 
 //! Upper 0.1 % point of chi-square with k degrees of freedom (k <= 10), else Wilson-Hilferty.
 double chi2_crit999(int k) {
@@ -1404,6 +1409,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         std::vector<std::vector<double>> zd;
         std::vector<double> lw_d;  // log omega per (region, factor); NaN: failed
         std::vector<std::size_t> to_run;
+        std::vector<char> scaled;  // per (region, factor): omega scaled, not run
         std::vector<Physics> batch_d;
         for (std::size_t ri = 0; ri < regions.size(); ++ri) {
           ctx.region = regions[ri];
@@ -1422,6 +1428,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
               to_run.push_back(zd.size());
               batch_d.push_back(pr.physics(z));
             }
+            scaled.push_back(!std::isnan(lw));
             zd.push_back(z);
             lw_d.push_back(lw);
           }
@@ -1454,9 +1461,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
             mp.zp = zd[i][2];
             mp.ratio = mp.log_w1 = lw_d[i];
             pts.push_back(mp);
-            const bool ran = std::find(to_run.begin(), to_run.end(), i) != to_run.end();
             line += fmt::format(" {:.3g}: {:.4g}{}", from_z(specs[0], mp.zp), std::exp(mp.ratio),
-                                ran ? "" : "s");
+                                scaled[i] ? "s" : "");
           }
           log::info(
               "    deck probes [{:.3g} {:.3g} {:.3g}]-[{:.3g} {:.3g} {:.3g}], omega at {}{} (s: "
@@ -2393,6 +2399,45 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
 
   phase_done("selection");
 
+  // 7a. The selected fit's own time step (see TimeStepCheck): rerun at dt/2 and compared late
+  // in the record as the numerical check compares the deck's. Where it moved by far more, the
+  // fit's parameters depend on the step: what separates two parameter values is then their
+  // chi-square difference against the step's own, 4/3 of the dt-to-dt/2 difference (second
+  // order), which sets the intervals' threshold below.
+  double ci_threshold = 3.84;  // in units of s2 (below)
+  if (best && !best->params.empty()) {
+    TimeStepCheck& T = D.time_step;
+    Physics p_half = effect_problem(find_effect(best->effect), best->variant).physics(best->z);
+    p_half.dt /= 2;
+    const Prediction half = ev.run_one(p_half);
+    const double t_late = rec.t_begin() + 0.75 * (rec.t_end() - rec.t_begin());
+    double d2 = 0, dtrain = 0;
+    long nl = 0;
+    for (std::size_t i = 0; i < obs.size() && half.ok; ++i) {
+      const double r = (best->pred.y[i] - half.y[i]) / obs.sigma[i];
+      if (obs.t[i] >= t_late) d2 += r * r, ++nl;
+      if (obs.train[i]) dtrain += r * r;
+    }
+    T.done = true;
+    T.runs = 1;
+    T.dispersion = half.ok ? std::sqrt(d2 / static_cast<double>(std::max(1L, nl)))
+                           : std::numeric_limits<double>::infinity();
+    T.threshold = std::max(kTimeStepFlag * D.numerical_dispersion, 1.0);
+    T.flagged = T.dispersion > T.threshold;
+    T.chi2_fit = best->chi2;
+    T.chi2_error =
+        half.ok ? std::pow(4.0 / 3.0, 2) * dtrain : std::numeric_limits<double>::infinity();
+    log::info(
+        "time-step check of the {} fit (dt/2 rerun): late-time difference {:.3g} noise sd (the "
+        "deck's: {:.3g}; the parameters depend on dt above {:.3g}){}",
+        best->effect, T.dispersion, D.numerical_dispersion, T.threshold,
+        T.flagged ? fmt::format(": the step's error, chi2 {:.4g} against the fit's {:.4g}, sets "
+                                "the intervals",
+                                T.chi2_error, T.chi2_fit)
+                  : std::string());
+  }
+  phase_done("time-step check");
+
   // 7. Profile-likelihood intervals of the selected effect's parameters (others re-optimised
   // along the linearised conditional optimum; one forward run per end point).
   if (best && !best->params.empty()) {
@@ -2421,6 +2466,11 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
             (weighted_residual(obs, jp[j], obs.train) - rb) / hstep[j];
     }
     const double s2 = best->chi2 / std::max(1.0, N - static_cast<double>(np));
+    if (D.time_step.flagged) ci_threshold = std::max(ci_threshold, D.time_step.chi2_error / s2);
+    const double thr = ci_threshold;
+    // With the step's error as threshold the probes (2 standard errors out) fall well inside,
+    // and the quadratic profile is extrapolated without the 3x cap, to the bounds at most.
+    const double reach = D.time_step.flagged ? 1e300 : 3.0;
     std::vector<Physics> ends;
     std::vector<std::vector<double>> zends;
     for (std::size_t q = 0; q < specs.size(); ++q) {
@@ -2467,18 +2517,20 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         if (dz == 0) {
           zend = best->z[j];
           at_bound = true;
-        } else if (dchi < 3.84) {
+        } else if (dchi < thr) {
           // Not reached within the step: the interval extends at least to the probe (bound
           // when the probe sat on it).
           zend = zends[idx][j];
           at_bound = zend <= pr.lo[j] || zend >= pr.hi[j];
-          // Extrapolate the quadratic profile, at most 3x the probe distance.
+          // Extrapolate the quadratic profile, at most `reach` times the probe distance.
           if (!at_bound)
-            zend = best->z[j] + dz * std::min(3.0, std::sqrt(3.84 / std::max(dchi, 1e-12)));
+            zend = best->z[j] + dz * std::min(reach, std::sqrt(thr / std::max(dchi, 1e-12)));
         } else {
-          zend = best->z[j] + dz * std::sqrt(3.84 / dchi);
+          zend = best->z[j] + dz * std::sqrt(thr / dchi);
         }
+        if (D.time_step.flagged && (zend <= pr.lo[j] || zend >= pr.hi[j])) at_bound = true;
         zend = std::clamp(zend, pr.lo[j], pr.hi[j]);
+        pe.ci_time_step = D.time_step.flagged;
         const double v = from_z(specs[q], zend);
         if (s == 0)
           pe.ci_lo = v, pe.ci_at_bound_lo = at_bound;

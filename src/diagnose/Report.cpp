@@ -71,6 +71,7 @@ std::string jparams(const std::vector<ParamEstimate>& ps, const std::string& var
       s += fmt::format(", \"ci95\": [{}, {}], \"ci95_at_bound\": [{}, {}]", jnum(p.ci_lo),
                        jnum(p.ci_hi), p.ci_at_bound_lo ? "true" : "false",
                        p.ci_at_bound_hi ? "true" : "false");
+    if (with_ci && p.ci_time_step) s += ", \"ci95_from_time_step_error\": true";
     if (!p.unit.empty()) s += ", \"unit\": " + jstr(p.unit);
     s += "}";
   }
@@ -135,6 +136,16 @@ std::string json(const Diagnosis& d) {
                  "\"dt_half_late_difference_in_noise_sd\": {}, \"dt_halved\": {}}}",
                  jnum(d.dt), jnum(d.numerical_change), jnum(d.numerical_dispersion),
                  d.dt_halved ? "true" : "false"));
+  {
+    const TimeStepCheck& t = d.time_step;
+    kv("time_step_check",
+       !t.done ? "null"
+               : fmt::format("{{\"dt_half_late_difference_in_noise_sd\": {}, \"threshold\": {}, "
+                             "\"depends_on_dt\": {}, \"chi2_time_step_error\": {}, "
+                             "\"chi2_fit\": {}, \"runs\": {}}}",
+                             jnum(t.dispersion), jnum(t.threshold), t.flagged ? "true" : "false",
+                             jnum(t.chi2_error), jnum(t.chi2_fit), t.runs));
+  }
   {
     const RefinementCheck& r = d.refinement;
     kv("discretisation_check",
@@ -263,6 +274,20 @@ std::string markdown(const Diagnosis& d) {
       "sd (phase, absorbed by the calibrated E); dt = {:g} s{}.\n\n",
       d.numerical_change, d.numerical_dispersion, d.dt,
       d.dt_halved ? ", halved because of it" : "");
+  if (d.time_step.done)
+    m << fmt::format(
+        "Time-step check of the selected fit: rerun at dt/2, its late-time motion moves by {:.3g} "
+        "noise sd (the deck's: {:.3g}){}.\n\n",
+        d.time_step.dispersion, d.numerical_dispersion,
+        !d.time_step.flagged
+            ? "; its parameters do not depend on the step"
+            : fmt::format(
+                  "; the fit depends on its time step. Its error (chi-square {:.4g}, 4/3 of the "
+                  "dt-to-dt/2 difference, against the fit's {:.4g}) is the intervals' threshold: "
+                  "parameter values closer than that cannot be told apart at this step, so read "
+                  "the intervals as what this recording and this step can tell, not as a "
+                  "measurement",
+                  d.time_step.chi2_error, d.time_step.chi2_fit));
   if (d.refinement.done && d.refinement.coarse)
     m << fmt::format(
         "Discretisation check: the calibrated baseline rerun on voxels of {:g} m ({} voxels, E "

@@ -17,6 +17,26 @@ struct ParamEstimate {
   double value = 0;
   double ci_lo = 0, ci_hi = 0;  //!< 95 % profile-likelihood interval
   bool ci_at_bound_lo = false, ci_at_bound_hi = false;
+  //! The interval's threshold is the fit's own time-step error (TimeStepCheck), not the
+  //! noise's 3.84.
+  bool ci_time_step = false;
+};
+
+//! The selected fit rerun at dt/2. The numerical check at the start measures the deck's own
+//! time-step error; an effect can bring its own (a contact penalty rings at frequencies no
+//! step resolves). When the fitted model's late-time motion moves by more than kTimeStepFlag
+//! times the deck's (and over a noise sd), its parameters depend on dt, and two parameter
+//! values are told apart only by more chi-square than the step's own error: 4/3 of the
+//! dt-to-dt/2 difference over the fitted samples (second order), the threshold of the
+//! profile-likelihood intervals then.
+struct TimeStepCheck {
+  bool done = false;
+  double dispersion = std::numeric_limits<double>::quiet_NaN();  //!< noise sd, late time
+  double threshold = 0;  //!< the dispersion above which the parameters depend on dt
+  bool flagged = false;
+  double chi2_error = std::numeric_limits<double>::quiet_NaN();  //!< the step's error
+  double chi2_fit = std::numeric_limits<double>::quiet_NaN();    //!< the fit's chi-square
+  long runs = 0;
 };
 
 //! One refitted candidate.
@@ -122,6 +142,7 @@ struct Diagnosis {
   double dt = 0, numerical_change = 0;  //!< amplitude change of the dt/2 rerun, noise units
   double numerical_dispersion = 0;      //!< late-time rms difference of the dt/2 rerun
   bool dt_halved = false;
+  TimeStepCheck time_step;
   RefinementCheck refinement;
   MisfitBudget budget;
   std::vector<Signature> signatures;
