@@ -1138,7 +1138,8 @@ def reported_effect(rep):
         return "ambiguous"
     if rep.get("verdict") == "none":
         return None
-    return rep.get("effect")
+    # Missing physics that no effect of the library explained.
+    return rep.get("effect") or "unidentified"
 
 
 def score_case(truth, rep):

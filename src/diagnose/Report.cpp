@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -224,6 +225,13 @@ std::string markdown(const Diagnosis& d) {
     m << "**No missing physics.** After calibrating the baseline no effect of the library "
          "improves the fit to held-out data significantly.\n\n";
     if (!d.unexplained.empty()) m << "Note: " << d.unexplained << ".\n\n";
+  } else if (d.effect.empty()) {
+    m << "**Missing physics, not identified.** The recording departs from the calibrated deck "
+         "by far more than the noise and the model's own voxels can, and no refitted effect of "
+         "the library explains it.\n\n";
+    if (!d.unexplained.empty())
+      m << static_cast<char>(std::toupper(static_cast<unsigned char>(d.unexplained[0])))
+        << d.unexplained.substr(1) << ".\n\n";
   } else {
     m << fmt::format("**{}: {}**{}.\n\n",
                      d.verdict == "ambiguous" ? "Ambiguous" : "Missing physics", d.effect,
