@@ -1428,19 +1428,28 @@ std::string damped_recording(const Config& cfg, const std::string& name) {
   return dir;
 }
 
+//! gen4d diagnose on the damped recording (folder `name`_np<ranks>) with these effects; the
+//! options it ran with (their out_dir holds the report). Every rank returns.
+DiagnoseOptions diagnose_damped(const std::string& name, const std::vector<std::string>& effects,
+                                int refit) {
+  const Config cfg = deck();
+  const std::string dir = damped_recording(cfg, name);
+  DiagnoseOptions opt;
+  opt.recordings = {dir + "/rec.csv", acceleration_csv_path(dir + "/rec.csv")};
+  opt.out_dir = dir + "/out";
+  opt.effects = effects;
+  opt.refit = refit;
+  EXPECT_EQ(run_diagnose(MPI_COMM_WORLD, cfg, opt), 0);
+  return opt;
+}
+
 }  // namespace
 
 TEST(DiagnoseEndToEnd, FindsHiddenMassDampingFromMarkersAndAccelerometers) {
   int rank = 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  const Config cfg = deck();
-  const std::string dir = damped_recording(cfg, "diagnose_e2e");
-  DiagnoseOptions opt;
-  opt.recordings = {dir + "/rec.csv", acceleration_csv_path(dir + "/rec.csv")};
-  opt.out_dir = dir + "/out";
-  opt.effects = {"damping", "gravity", "air_drag"};
-  opt.refit = 2;
-  EXPECT_EQ(run_diagnose(MPI_COMM_WORLD, cfg, opt), 0);
+  const DiagnoseOptions opt =
+      diagnose_damped("diagnose_e2e", {"damping", "gravity", "air_drag"}, 2);
   if (rank != 0) return;
   const std::string js = file_text(opt.out_dir + "/report.json");
   EXPECT_NE(js.find("\"verdict\": \"missing_physics\""), std::string::npos) << js.substr(0, 400);
@@ -1481,13 +1490,8 @@ TEST(DiagnoseEndToEnd, SaysMissingPhysicsNotIdentifiedWhenTheLibraryLacksIt) {
   // the verdict must not be "none", and no effect may be named.
   int rank = 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  const Config cfg = deck();
-  const std::string dir = damped_recording(cfg, "diagnose_unidentified");
-  DiagnoseOptions opt;
-  opt.recordings = {dir + "/rec.csv", acceleration_csv_path(dir + "/rec.csv")};
-  opt.out_dir = dir + "/out";
-  opt.effects = {"material_law"};
-  EXPECT_EQ(run_diagnose(MPI_COMM_WORLD, cfg, opt), 0);
+  const DiagnoseOptions opt =
+      diagnose_damped("diagnose_unidentified", {"material_law"}, DiagnoseOptions{}.refit);
   if (rank != 0) return;
   const std::string js = file_text(opt.out_dir + "/report.json");
   EXPECT_NE(js.find("\"verdict\": \"missing_physics\""), std::string::npos) << js.substr(0, 600);
