@@ -1689,6 +1689,12 @@ TEST(DiagnoseEndToEnd, FindsAGroundTheDeckLeftOutOnDataFromFinerVoxels) {
   const auto [h_lo, h_hi] = interval("height");
   EXPECT_LE(h_lo, truth.ground_height);
   EXPECT_GE(h_hi, truth.ground_height);
+  // Both intervals span a scan of the parameter's range as well (6 values each).
+  EXPECT_NE(js.find("\"scan_points\": 6, \"scan_runs\": 12"), std::string::npos) << js;
+  for (const std::string name : {"height", "friction"})
+    EXPECT_TRUE(
+        std::regex_search(js, std::regex("\"" + name + "\": \\{[^}]*\"ci95_spans_scan\": true")))
+        << name;
 }
 
 TEST(DiagnoseEndToEnd, FindsHiddenDampingOnAnLBracket) {
@@ -1713,8 +1719,11 @@ TEST(DiagnoseEndToEnd, FindsHiddenDampingOnAnLBracket) {
   std::smatch mt;
   ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"alpha\": \\{\"value\": ([-0-9.e+]+)")));
   EXPECT_NEAR(std::stod(mt[1].str()) / 3.0, 1.0, 0.2);
-  // Mass damping does not make the fit depend on its time step (0.15 noise sd at dt/2).
+  // Mass damping does not make the fit depend on its time step (0.15 noise sd at dt/2): no
+  // scan.
   EXPECT_NE(js.find("\"depends_on_dt\": false"), std::string::npos) << js;
+  EXPECT_NE(js.find("\"scan_runs\": 0"), std::string::npos) << js;
+  EXPECT_EQ(js.find("ci95_spans_scan"), std::string::npos) << js;
   ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"youngs_modulus\": ([-0-9.e+]+)")));
   EXPECT_NEAR(std::stod(mt[1].str()) / truth.youngs_modulus, 1.0, 0.05);
 }

@@ -91,6 +91,9 @@ constexpr double kTimeStepFlag = 4.0;
 //! nor the voxels can make such a misfit. The blind null beams' bounds were 0.9-1.1 times
 //! that error (none-3: 2342 against 2207); a ground the screening left unrefitted 60 times.
 constexpr double kUnidentifiedFactor = 4.0;
+//! Where the selected fit depends on its time step, each effect parameter's range is also
+//! scanned at this many values (bounds included; see step 7).
+constexpr int kScanPoints = 6;
 
 //! Upper 0.1 % point of chi-square with k degrees of freedom (k <= 10), else Wilson-Hilferty.
 double chi2_crit999(int k) {
@@ -2510,6 +2513,54 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     const double s2 = best->chi2 / std::max(1.0, N - static_cast<double>(np));
     // The threshold in units of s2: 3.84, or the step's own error where it is larger.
     const double thr = D.time_step.flagged ? std::max(3.84, D.time_step.chi2_error / s2) : 3.84;
+    // Where the fit depends on its step, its chi-square is rough on the scale of the step's
+    // error: two probes and a quadratic through them can miss values far off that fit as well
+    // (on the full contact beam the profile's intervals held neither the true height nor the
+    // friction; E moved by 1e-4 moves the markers by 0.19 noise sd, by 1e-3 by 16.6, as
+    // strikes come or go). Each effect parameter is then also scanned over its range
+    // (kScanPoints, bounds included; the others held at the fit), and the interval spans the
+    // scanned values within the threshold as well (the fit among them), widened to their
+    // scanned neighbours outside it, or to the bound.
+    std::vector<double> scan_lo(specs.size()), scan_hi(specs.size());
+    if (D.time_step.flagged) {
+      std::vector<Physics> scan;
+      std::vector<std::vector<double>> zscan;
+      for (std::size_t q = 0; q < specs.size(); ++q) {
+        const std::size_t j = 2 + q;
+        for (int k = 0; k < kScanPoints; ++k) {
+          std::vector<double> z = best->z;
+          z[j] = pr.lo[j] + (pr.hi[j] - pr.lo[j]) * k / (kScanPoints - 1);
+          zscan.push_back(z);
+          scan.push_back(phys(z));
+        }
+      }
+      const auto sp = ev.run(scan);
+      D.time_step.scan_runs = static_cast<long>(scan.size());
+      D.time_step.scan_points = kScanPoints;
+      for (std::size_t q = 0; q < specs.size(); ++q) {
+        const std::size_t j = 2 + q;
+        std::vector<std::pair<double, double>> pts = {{best->z[j], 0.0}};  // (z, dchi in s2)
+        for (int k = 0; k < kScanPoints; ++k) {
+          const std::size_t idx = q * kScanPoints + static_cast<std::size_t>(k);
+          pts.emplace_back(
+              zscan[idx][j],
+              sp[idx].ok
+                  ? (weighted_residual(obs, sp[idx], obs.train).squaredNorm() - best->chi2) / s2
+                  : std::numeric_limits<double>::infinity());
+        }
+        std::stable_sort(pts.begin(), pts.end());
+        std::size_t first = pts.size(), last = 0;
+        for (std::size_t k = 0; k < pts.size(); ++k)
+          if (pts[k].second < thr) first = std::min(first, k), last = k;
+        scan_lo[q] = first > 0 ? pts[first - 1].first : pr.lo[j];
+        scan_hi[q] = last + 1 < pts.size() ? pts[last + 1].first : pr.hi[j];
+        std::string scanned;
+        for (const auto& [zv, dchi] : pts)
+          scanned += fmt::format(" {:.4g}: {:.3g};", from_z(specs[q], zv), dchi);
+        log::info("  scan of {} (chi2 above the fit, in units of s2; threshold {:.3g}):{}",
+                  specs[q].name, thr, scanned);
+      }
+    }
     // With the step's error as threshold the probes (2 standard errors out) fall well inside,
     // and the quadratic profile is extrapolated without the 3x cap, to the bounds at most.
     const double reach = D.time_step.flagged ? 1e300 : 3.0;
@@ -2569,6 +2620,10 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
             zend = best->z[j] + dz * std::min(reach, std::sqrt(thr / std::max(dchi, 1e-12)));
         } else {
           zend = best->z[j] + dz * std::sqrt(thr / dchi);
+        }
+        if (D.time_step.flagged) {  // the scan's reach too
+          zend = s == 0 ? std::min(zend, scan_lo[q]) : std::max(zend, scan_hi[q]);
+          pe.ci_scanned = true;
         }
         if (D.time_step.flagged && (zend <= pr.lo[j] || zend >= pr.hi[j])) at_bound = true;
         zend = std::clamp(zend, pr.lo[j], pr.hi[j]);

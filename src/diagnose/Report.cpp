@@ -73,6 +73,7 @@ std::string jparams(const std::vector<ParamEstimate>& ps, const std::string& var
                        jnum(p.ci_hi), p.ci_at_bound_lo ? "true" : "false",
                        p.ci_at_bound_hi ? "true" : "false");
     if (with_ci && p.ci_time_step) s += ", \"ci95_from_time_step_error\": true";
+    if (with_ci && p.ci_scanned) s += ", \"ci95_spans_scan\": true";
     if (!p.unit.empty()) s += ", \"unit\": " + jstr(p.unit);
     s += "}";
   }
@@ -140,12 +141,14 @@ std::string json(const Diagnosis& d) {
   {
     const TimeStepCheck& t = d.time_step;
     kv("time_step_check",
-       !t.done ? "null"
-               : fmt::format("{{\"dt_half_late_difference_in_noise_sd\": {}, \"threshold\": {}, "
-                             "\"depends_on_dt\": {}, \"chi2_time_step_error\": {}, "
-                             "\"chi2_fit\": {}, \"runs\": {}}}",
-                             jnum(t.dispersion), jnum(t.threshold), t.flagged ? "true" : "false",
-                             jnum(t.chi2_error), jnum(t.chi2_fit), t.runs));
+       !t.done
+           ? "null"
+           : fmt::format("{{\"dt_half_late_difference_in_noise_sd\": {}, \"threshold\": {}, "
+                         "\"depends_on_dt\": {}, \"chi2_time_step_error\": {}, "
+                         "\"chi2_fit\": {}, \"runs\": {}, \"scan_points\": {}, "
+                         "\"scan_runs\": {}}}",
+                         jnum(t.dispersion), jnum(t.threshold), t.flagged ? "true" : "false",
+                         jnum(t.chi2_error), jnum(t.chi2_fit), t.runs, t.scan_points, t.scan_runs));
   }
   {
     const RefinementCheck& r = d.refinement;
@@ -294,8 +297,10 @@ std::string markdown(const Diagnosis& d) {
                   "dt-to-dt/2 difference, against the fit's {:.4g}) is the intervals' threshold: "
                   "parameter values closer than that cannot be told apart at this step, so read "
                   "the intervals as what this recording and this step can tell, not as a "
-                  "measurement",
-                  d.time_step.chi2_error, d.time_step.chi2_fit));
+                  "measurement. The chi-square is rough on that scale, so each interval also "
+                  "spans a scan of the parameter's range ({} values, the others held at the "
+                  "fit): the values within the threshold, widened to their neighbours",
+                  d.time_step.chi2_error, d.time_step.chi2_fit, d.time_step.scan_points));
   if (d.refinement.done && d.refinement.coarse)
     m << fmt::format(
         "Discretisation check: the calibrated baseline rerun on voxels of {:g} m ({} voxels, E "

@@ -20,6 +20,9 @@ struct ParamEstimate {
   //! The interval's threshold is the fit's own time-step error (TimeStepCheck), not the
   //! noise's 3.84.
   bool ci_time_step = false;
+  //! The interval also spans a scan of the parameter's range (the fit depends on its time
+  //! step, and its chi-square is rough on the scale of the step's error).
+  bool ci_scanned = false;
 };
 
 //! The selected fit rerun at dt/2. The numerical check at the start measures the deck's own
@@ -37,6 +40,9 @@ struct TimeStepCheck {
   double chi2_error = std::numeric_limits<double>::quiet_NaN();  //!< the step's error
   double chi2_fit = std::numeric_limits<double>::quiet_NaN();    //!< the fit's chi-square
   long runs = 0;
+  //! Flagged: each effect parameter's range scanned at this many values (step 7), in runs.
+  int scan_points = 0;
+  long scan_runs = 0;
 };
 
 //! One refitted candidate.
