@@ -8,6 +8,8 @@ Usage: check_blind_scoring.py PATH/TO/diagnose_blind.py
 - An "ambiguous" verdict counts as correct only when its two contenders are the truth and
   the confounder that truth.json's separability check found inseparable; a separable case,
   other contenders, or a confounder named alone stay wrong; the strict count is kept apart.
+- "Missing physics, not identified" (effect null) is reported as "unidentified": a false
+  discovery on a null case, wrong on an effect case.
 - The modal equivalent alpha = c (P L + 4 A_tip) / (rho A L) maps drag to damping and back.
 - The clamp_compliance springs hold the root face's translation and its rotation across a
   two-element thickness at a continuous foundation's stiffness (lumped springs: 1.167 times).
@@ -59,6 +61,14 @@ def main():
     null = dict(truth(None), effect=None, parameters={}, scored_parameters=[])
     r = db.score_case(null, report("ambiguous", "air_drag", ["air_drag", "damping"]))
     check(not r["correct"] and not r["false_discovery"], "null case, ambiguous: wrong")
+    # Missing physics that no effect of the library explained ("effect": null).
+    unid = report("missing_physics", None, [])
+    r = db.score_case(null, unid)
+    check(r["reported"] == "unidentified" and not r["correct"] and r["false_discovery"],
+          "null case, missing physics not identified: a false discovery")
+    r = db.score_case(truth(True), unid)
+    check(r["reported"] == "unidentified" and not r["correct"],
+          "effect case, missing physics not identified: wrong")
 
     case = {"effect": "air_drag", "params": {"linear": 8.0, "quadratic": 0.0},
             "n": (20, 4, 4), "h": 0.01}
