@@ -89,7 +89,7 @@ constexpr double kTimeStepFlag = 4.0;
 //! missing effect could explain of the held-out misfit (the misfit budget's bound) exceeds
 //! this many times the model's own discretisation error (twice it in rms): neither the noise
 //! nor the voxels can make such a misfit. The blind null beams' bounds were 0.9-1.1 times
-//! that error (none-3: 2342 against 2207); a ground the screening left unrefitted 60 times.
+//! that error (none-3: 2342 against 2207); a ground the screening left unrefitted 860 times.
 constexpr double kUnidentifiedFactor = 4.0;
 //! Where the selected fit depends on its time step, each effect parameter's range is also
 //! scanned at this many values (bounds included; see step 7).
@@ -2513,6 +2513,10 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     const double s2 = best->chi2 / std::max(1.0, N - static_cast<double>(np));
     // The threshold in units of s2: 3.84, or the step's own error where it is larger.
     const double thr = D.time_step.flagged ? std::max(3.84, D.time_step.chi2_error / s2) : 3.84;
+    // A run's chi-square above the fit's, in units of s2 (a failed run: far beyond any).
+    auto dchi_of = [&](const Prediction& p) {
+      return p.ok ? (weighted_residual(obs, p, obs.train).squaredNorm() - best->chi2) / s2 : 1e300;
+    };
     // Where the fit depends on its step, its chi-square is rough on the scale of the step's
     // error: two probes and a quadratic through them can miss values far off that fit as well
     // (on the full contact beam the profile's intervals held neither the true height nor the
@@ -2542,11 +2546,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         std::vector<std::pair<double, double>> pts = {{best->z[j], 0.0}};  // (z, dchi in s2)
         for (int k = 0; k < kScanPoints; ++k) {
           const std::size_t idx = q * kScanPoints + static_cast<std::size_t>(k);
-          pts.emplace_back(
-              zscan[idx][j],
-              sp[idx].ok
-                  ? (weighted_residual(obs, sp[idx], obs.train).squaredNorm() - best->chi2) / s2
-                  : std::numeric_limits<double>::infinity());
+          pts.emplace_back(zscan[idx][j], dchi_of(sp[idx]));
         }
         std::stable_sort(pts.begin(), pts.end());
         std::size_t first = pts.size(), last = 0;
@@ -2601,10 +2601,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       for (int s = 0; s < 2; ++s) {
         const std::size_t idx = 2 * q + static_cast<std::size_t>(s);
         const double dz = zends[idx][j] - best->z[j];
-        const double dchi =
-            ep[idx].ok
-                ? (weighted_residual(obs, ep[idx], obs.train).squaredNorm() - best->chi2) / s2
-                : 1e300;
+        const double dchi = dchi_of(ep[idx]);
         double zend;
         bool at_bound = false;
         if (dz == 0) {
@@ -2624,8 +2621,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         if (D.time_step.flagged) {  // the scan's reach too
           zend = s == 0 ? std::min(zend, scan_lo[q]) : std::max(zend, scan_hi[q]);
           pe.ci_scanned = true;
+          if (zend <= pr.lo[j] || zend >= pr.hi[j]) at_bound = true;
         }
-        if (D.time_step.flagged && (zend <= pr.lo[j] || zend >= pr.hi[j])) at_bound = true;
         zend = std::clamp(zend, pr.lo[j], pr.hi[j]);
         pe.ci_time_step = D.time_step.flagged;
         const double v = from_z(specs[q], zend);
