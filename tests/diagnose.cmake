@@ -7,3 +7,5 @@ set_source_files_properties(test_diagnose.cpp PROPERTIES COMPILE_OPTIONS -ffp-co
 gen4d_test(block_ldlt SOURCES test_block_ldlt.cpp LIBS gen4d_diagnose RANKS 1)
 # The forward model's von Mises return map against the MPM von_mises material.
 gen4d_test(hencky_j2 SOURCES test_hencky_j2.cpp LIBS gen4d_diagnose RANKS 1)
+# gen4d diagnose on MPM decks: the MPM solver as the forward model, and one diagnosis.
+gen4d_test(diagnose_mpm SOURCES test_diagnose_mpm.cpp LIBS gen4d_diagnose RANKS 1 2)

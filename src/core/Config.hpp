@@ -97,6 +97,10 @@ struct BoundaryConfig {
   double radius = 0, half_height = 0;  //!< cylinder of velocity_rotation (axis = normal)
   std::string surface = "sticky";      //!< surface_collider: sticky | slip | separate
   double friction = 0;
+  //! surface_collider: nodes up to this far outside the plane (m) are blended in, with weight
+  //! 1 - distance / width, so the collider's action is continuous in its position (diagnose
+  //! fits a plane's height); 0, as decks give it: only nodes on or inside the plane.
+  double soft_width = 0;
   int layers = 1;  //!< release_particles_sequentially
   double start = 0;
   double end = 1e300;

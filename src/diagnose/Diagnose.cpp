@@ -145,7 +145,7 @@ double estimate_noise(const std::vector<const Channel*>& chans) {
 namespace {
 
 //! Observations of the recording: channel requests, holdout split, noise weights.
-Observations build_observations(const VoxelModel& model, const Recording& rec, double holdout,
+Observations build_observations(const ForwardModel& model, const Recording& rec, double holdout,
                                 double& noise_pos, double& noise_acc) {
   Observations obs;
   std::vector<const Channel*> pos, acc;
@@ -173,6 +173,11 @@ Observations build_observations(const VoxelModel& model, const Recording& rec, d
     chan_out[static_cast<std::size_t>((2 * i + 1) * static_cast<int>(nch) / (2 * hm))] = 1;
   for (std::size_t c = 0; c < nch; ++c) {
     const Channel& ch = rec.channels[c];
+    if (ch.kind == ChannelKind::Acceleration && !model.samples_accelerations())
+      throw InputError(
+          fmt::format("{}:{}: sensor '{}': the {} model samples marker positions only; "
+                      "give this scene's motion as markers",
+                      ch.file, ch.line.front(), ch.id, model.kind()));
     ChannelRequest r;
     r.at = model.attach(ch.X);
     r.acceleration = ch.kind == ChannelKind::Acceleration;
@@ -399,7 +404,7 @@ double vuong_z(const Observations& obs, const std::vector<char>& mask, const Pre
 //! The deck voxelized at another voxel size, with the channels attached there and the masks of
 //! the values it can measure; fobs's values are the h run's prediction.
 struct CheckLevel {
-  std::unique_ptr<VoxelModel> model;
+  std::unique_ptr<ForwardModel> model;
   Observations fobs;
   std::vector<char> all_in, scored_in;
   double n_scored = 0, n_in = 0;
@@ -415,7 +420,7 @@ CheckLevel check_level(const Config& cfg, double voxel_size, const Observations&
   Config level_cfg = cfg;
   level_cfg.voxel_size = voxel_size;
   try {
-    L.model = std::make_unique<VoxelModel>(level_cfg);
+    L.model = make_forward_model(level_cfg);
   } catch (const InputError& e) {
     L.skipped = fmt::format("the deck at {} cannot be modelled: {}", what, e.what());
     return L;
@@ -488,12 +493,12 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
   RefinementCheck R;
   constexpr double kStep = 5e-3;  // relative E step of the Gauss-Newton pair
   const Vec3d dir = motion_direction(obs, t_free);
-  const double w_h_rest = VoxelModel(cfg).rest_frequency(calibrated, dir);
+  const double w_h_rest = make_forward_model(cfg)->rest_frequency(calibrated, dir);
   // The pair starts at the E that gives the other voxels the h voxels' rest frequency (finer
   // voxels are softer in bending): at the calibrated E itself the two drift apart in phase,
   // and the pair's bound on the h model's error is then mostly a phase error that E absorbs
   // (heterogeneity-soft: a bound that decided nothing, and two more fine runs).
-  auto rest_matched = [&](const VoxelModel& m, Physics p) {
+  auto rest_matched = [&](const ForwardModel& m, Physics p) {
     const double w = m.rest_frequency(p, dir);
     if (std::isfinite(w_h_rest) && std::isfinite(w) && w > 0)
       p.youngs_modulus *= std::clamp(std::pow(w_h_rest / w, 2), 0.9, 1.1);
@@ -526,7 +531,10 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
           "most {:.3g} m rms (the h-to-2h difference, grid convergence index with Fs = 3), "
           "scored chi2 {:.4g}{}",
           Rc.voxels, Rc.youngs_modulus, Rc.rms, Rc.chi2,
-          Rc.chi2 < decided_below ? ": decides, no h/2 runs" : ": h/2 runs needed");
+          !(got[0].ok || got[1].ok)
+              ? fmt::format(": both runs failed ({}), h/2 runs needed", cev.first_failure())
+          : Rc.chi2 < decided_below ? std::string(": decides, no h/2 runs")
+                                    : std::string(": h/2 runs needed"));
       if ((got[0].ok || got[1].ok) && Rc.chi2 < decided_below) {
         Rc.done = Rc.upper_bound = Rc.coarse = true;
         return Rc;
@@ -542,7 +550,7 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
     R.skipped = F.skipped;
     return R;
   }
-  const VoxelModel& fine = *F.model;
+  const ForwardModel& fine = *F.model;
   R.voxels = fine.voxels();
   R.channels = F.channels;
   Evaluator fev(comm, fine, F.fobs);
@@ -669,16 +677,35 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   if (opt.recordings.empty()) throw InputError("gen4d diagnose: --recording is required");
   if (!(opt.holdout >= 0 && opt.holdout <= 0.5))
     throw InputError(fmt::format("gen4d diagnose: --holdout {} must be in [0, 0.5]", opt.holdout));
-  std::vector<const Effect*> library;
-  if (opt.effects.empty())
-    for (const auto& e : effect_library()) library.push_back(e.get());
-  else
-    for (const auto& n : opt.effects) library.push_back(&find_effect(n));
-
   Diagnosis D;
   D.deck = cfg.source;
   D.ranks = size;
-  const VoxelModel model(cfg);
+  const std::unique_ptr<ForwardModel> model_ptr = make_forward_model(cfg);
+  const ForwardModel& model = *model_ptr;
+  D.model = model.kind();
+  // The library: every effect the forward model represents (or those --effects names, each of
+  // which it must represent).
+  std::vector<const Effect*> library;
+  if (opt.effects.empty()) {
+    for (const auto& e : effect_library()) {
+      if (model.models(e->name(), ""))
+        library.push_back(e.get());
+      else
+        D.effects_left_out.push_back({e->name(), model.unsupported_reason(e->name())});
+    }
+  } else {
+    for (const auto& n : opt.effects) {
+      const Effect& e = find_effect(n);
+      if (!model.models(n, ""))
+        throw InputError(
+            fmt::format("gen4d diagnose: --effects {}: the {} model of {} does not "
+                        "represent it ({})",
+                        n, model.kind(), cfg.source, model.unsupported_reason(n)));
+      library.push_back(&e);
+    }
+  }
+  for (const auto& [name, why] : D.effects_left_out)
+    log::info("effect {} left out of the library: {}", name, why);
   D.body = model.bounds();
   Recording rec = read_recording(opt.recordings[0]);
   for (std::size_t i = 1; i < opt.recordings.size(); ++i)
@@ -1153,6 +1180,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   for (const Effect* e : library) {
     if (!e->applicable(ctx)) continue;
     for (const auto& var : e->variants(ctx)) {
+      if (!model.models(e->name(), var)) continue;
       const auto groups = e->probe_groups(ctx, var);
       std::size_t group = 0;
       for (const auto& g : groups) {

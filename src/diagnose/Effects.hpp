@@ -17,7 +17,7 @@ namespace gen4d::diagnose {
 
 //! Scene scales the effects size their parameters and probes from.
 struct EffectContext {
-  const VoxelModel* model = nullptr;
+  const ForwardModel* model = nullptr;
   Physics base;             //!< calibrated baseline
   double omega = 1;         //!< dominant angular frequency of the motion, rad/s
   double max_mises = 0;     //!< peak von Mises stress of the baseline run, Pa

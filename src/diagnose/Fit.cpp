@@ -17,7 +17,7 @@
 
 namespace gen4d::diagnose {
 
-Evaluator::Evaluator(MPI_Comm comm, const VoxelModel& model, const Observations& obs)
+Evaluator::Evaluator(MPI_Comm comm, const ForwardModel& model, const Observations& obs)
     : comm_(comm), model_(model), obs_(obs) {
   MPI_Comm_rank(comm, &rank_);
   MPI_Comm_size(comm, &size_);

@@ -48,7 +48,7 @@ struct Prediction {
 class Evaluator {
  public:
   static constexpr std::size_t kMemoBytes = std::size_t{256} << 20;
-  Evaluator(MPI_Comm comm, const VoxelModel& model, const Observations& obs);
+  Evaluator(MPI_Comm comm, const ForwardModel& model, const Observations& obs);
   std::vector<Prediction> run(const std::vector<Physics>& batch);
   Prediction run_one(const Physics& p) { return run({p})[0]; }
   long runs() const { return runs_; }      //!< forward runs made
@@ -66,7 +66,7 @@ class Evaluator {
   //! runs, sharing the results). With P ranks, P x (wall in run()) = run + idle seconds.
   double idle_seconds() const { return idle_; }
   const Observations& observations() const { return obs_; }
-  const VoxelModel& model() const { return model_; }
+  const ForwardModel& model() const { return model_; }
   MPI_Comm comm() const { return comm_; }
   int ranks() const { return size_; }
   //! Runs stop at time t (infinity: the recording's end). Values after t are NaN and must be
@@ -77,7 +77,7 @@ class Evaluator {
  private:
   MPI_Comm comm_;
   int rank_ = 0, size_ = 1;
-  const VoxelModel& model_;
+  const ForwardModel& model_;
   const Observations& obs_;
   double horizon_ = std::numeric_limits<double>::infinity();
   std::vector<ChannelRequest> requests_;  //!< obs_.requests cut at horizon_

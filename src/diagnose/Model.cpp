@@ -1,4 +1,5 @@
 #include "diagnose/Model.hpp"
+#include "diagnose/MpmModel.hpp"
 
 #include "diagnose/BlockLDLT.hpp"
 #include "diagnose/ElementKernel.hpp"
@@ -274,6 +275,11 @@ struct HasPk1Jacobian<
 
 }  // namespace
 
+std::unique_ptr<ForwardModel> make_forward_model(const Config& cfg) {
+  if (cfg.solver.method == "mpm") return std::make_unique<MpmModel>(cfg);
+  return std::make_unique<VoxelModel>(cfg);
+}
+
 VoxelModel::VoxelModel(const Config& cfg) : cfg_(cfg) {
   const std::string& src = cfg.source;
   if (!cfg.kinematic.empty())
@@ -289,9 +295,7 @@ VoxelModel::VoxelModel(const Config& cfg) : cfg_(cfg) {
       throw InputError(src + ": [[collider]] of type '" + c.type +
                        "' is not supported by gen4d diagnose (planes are)");
   if (cfg.solver.method == "mpm")
-    throw InputError(src +
-                     ": key 'solver.method': gen4d diagnose models voxel elastodynamics; "
-                     "\"mpm\" scenes are not supported yet");
+    throw InputError(src + ": key 'solver.method': \"mpm\" decks take MpmModel");
   if (!(cfg.dt > 0) || !(cfg.end_time > 0))
     throw InputError(src + ": keys 'simulation.dt' and 'simulation.end_time' must be > 0");
   materials::find_material(cfg.material.model);  // InputError for an unknown law
@@ -474,6 +478,7 @@ Attachment VoxelModel::attach(const Vec3d& X) const {
       }
   if (best < 0) throw std::logic_error("attach: point is not on the body");
   Attachment at;
+  at.X = X;
   double xi[3];
   for (int a = 0; a < 3; ++a) {
     const double lo = origin_[a] + h_ * vox_ijk_[static_cast<std::size_t>(best)][a];

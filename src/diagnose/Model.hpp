@@ -72,6 +72,7 @@ struct Physics {
 struct Attachment {
   std::array<int, 8> node{};  //!< compact node ids
   std::array<double, 8> w{};
+  Vec3d X{0, 0, 0};  //!< the reference point itself (the MPM model attaches from it)
 };
 
 //! What to sample: one attachment per channel, its kind and sample times.
@@ -100,45 +101,81 @@ struct Trace {
   double time_internal = 0, time_tangent = 0, time_factor = 0, time_solve = 0;
 };
 
-class VoxelModel {
+//! What `gen4d diagnose` needs of a forward model: the body's cells (reference coordinates on
+//! a regular grid of size h), attaching points to it, and runs of a Physics to sampled traces.
+//! Implemented by the voxel elastodynamics model (VoxelModel) and by the MPM solver (MpmModel).
+class ForwardModel {
+ public:
+  virtual ~ForwardModel() = default;
+  virtual const Config& config() const = 0;
+  //! "voxel" or "mpm", for the reports.
+  virtual std::string kind() const = 0;
+  //! The deck's physics at its nominal values (no effect).
+  virtual Physics nominal() const = 0;
+  //! Cell size (m) and the solid cells of the body at rest.
+  virtual double h() const = 0;
+  virtual std::size_t voxels() const = 0;
+  virtual Vec3d voxel_center(std::size_t v) const = 0;
+  virtual const std::array<long, 3>& voxel_ijk(std::size_t v) const = 0;
+  virtual BoxRegion voxel_box(const std::vector<std::size_t>& voxels) const = 0;
+  virtual BoxRegion bounds() const = 0;
+  //! Volume of the solid cells (m^3) and their exposed surface area (m^2, clamps excluded).
+  virtual double volume() const = 0;
+  virtual double exposed_area() const = 0;
+  //! True when X lies in the body (within a quarter cell).
+  virtual bool inside(const Vec3d& X) const = 0;
+  //! Attachment of X (call inside() first).
+  virtual Attachment attach(const Vec3d& X) const = 0;
+  //! Times where the load program switches, sorted, unique.
+  virtual std::vector<double> load_events() const = 0;
+  //! Runs the model from rest to the last requested time.
+  virtual Trace run(const Physics& phys, const std::vector<ChannelRequest>& req) const = 0;
+  //! Lowest rest angular frequency with a component along `direction`; NaN where the model
+  //! has none to offer.
+  virtual double rest_frequency(const Physics& phys, const Vec3d& direction) const = 0;
+  //! Whether the model represents `effect` (in `variant`, empty: any) for this deck; the
+  //! effects it does not are left out of the library with the reason `unsupported_reason`.
+  virtual bool models(const std::string& /*effect*/, const std::string& /*variant*/) const {
+    return true;
+  }
+  virtual std::string unsupported_reason(const std::string& /*effect*/) const { return {}; }
+  //! Whether accelerometer channels can be sampled.
+  virtual bool samples_accelerations() const { return true; }
+};
+
+//! The forward model of a deck: MpmModel for solver.method = "mpm", else VoxelModel.
+std::unique_ptr<ForwardModel> make_forward_model(const Config& cfg);
+
+class VoxelModel final : public ForwardModel {
  public:
   //! Voxelizes the deck's geometry; InputError for scenes the model cannot represent.
   explicit VoxelModel(const Config& cfg);
-  ~VoxelModel();
+  ~VoxelModel() override;
 
-  const Config& config() const { return cfg_; }
-  //! The deck's physics at its nominal values (no effect).
-  Physics nominal() const;
-  double h() const { return h_; }
+  const Config& config() const override { return cfg_; }
+  std::string kind() const override { return "voxel"; }
+  Physics nominal() const override;
+  double h() const override { return h_; }
   std::size_t nodes() const { return X_.size(); }
-  std::size_t voxels() const { return vox_node_.size(); }
+  std::size_t voxels() const override { return vox_node_.size(); }
   const std::vector<Vec3d>& rest_positions() const { return X_; }
-  //! Voxel centres (reference), for regions and maps.
-  Vec3d voxel_center(std::size_t v) const;
-  //! Volume of the solid voxels (m^3) and their exposed surface area (m^2, clamp faces excluded).
-  double volume() const { return h_ * h_ * h_ * static_cast<double>(vox_node_.size()); }
-  double exposed_area() const;
-  //! Voxel index triple (cells from the grid origin).
-  const std::array<long, 3>& voxel_ijk(std::size_t v) const { return vox_ijk_[v]; }
-  //! Bounds of the solid voxels.
-  BoxRegion bounds() const { return bounds_; }
-  //! The smallest voxel-aligned box holding the given voxels.
-  BoxRegion voxel_box(const std::vector<std::size_t>& voxels) const;
-  //! True when X lies in a solid voxel, or within tolerance (a quarter voxel) of one.
-  bool inside(const Vec3d& X) const;
-  //! Attachment of X; InputError-free: call inside() first (throws std::logic_error if not).
-  Attachment attach(const Vec3d& X) const;
-  //! Times where the load program switches (force start/end), sorted, unique.
-  std::vector<double> load_events() const;
-  //! Runs the model from rest to the last requested time.
-  Trace run(const Physics& phys, const std::vector<ChannelRequest>& req) const;
-  //! Angular frequency (rad/s) of the lowest vibration mode at rest, without load, with a
-  //! component along `direction` (inverse iteration on the linear stiffness and the mass
-  //! from a uniform displacement along it): what a change of voxels, stiffness or region does
-  //! to the frequency, without a run (milliseconds on the 20x4x4 beam). NaN where a rest state
-  //! does not capture the model this way (a spring clamp, contact planes) or the stiffness is
-  //! singular (a body held nowhere).
-  double rest_frequency(const Physics& phys, const Vec3d& direction) const;
+  Vec3d voxel_center(std::size_t v) const override;
+  double volume() const override { return h_ * h_ * h_ * static_cast<double>(vox_node_.size()); }
+  double exposed_area() const override;
+  const std::array<long, 3>& voxel_ijk(std::size_t v) const override { return vox_ijk_[v]; }
+  BoxRegion bounds() const override { return bounds_; }
+  BoxRegion voxel_box(const std::vector<std::size_t>& voxels) const override;
+  bool inside(const Vec3d& X) const override;
+  //! InputError-free: call inside() first (throws std::logic_error if not).
+  Attachment attach(const Vec3d& X) const override;
+  std::vector<double> load_events() const override;
+  Trace run(const Physics& phys, const std::vector<ChannelRequest>& req) const override;
+  //! Inverse iteration on the linear stiffness and the mass from a uniform displacement
+  //! along `direction`: what a change of voxels, stiffness or region does to the frequency,
+  //! without a run (milliseconds on the 20x4x4 beam). NaN where a rest state does not capture
+  //! the model this way (a spring clamp, contact planes) or the stiffness is singular (a body
+  //! held nowhere).
+  double rest_frequency(const Physics& phys, const Vec3d& direction) const override;
   //! Whether StVK's elastic passes run in the vector kernel (the default) or in the scalar
   //! element loop; both give the same bits (tests and bench_diagnose compare them).
   void set_vector_kernels(bool on) { vector_kernels_ = on; }

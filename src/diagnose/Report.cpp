@@ -204,6 +204,14 @@ std::string json(const Diagnosis& d) {
   kv("unexplained_misfit", d.unexplained.empty() ? "null" : jstr(d.unexplained));
   kv("deck", jstr(d.deck));
   kv("recording", jstr(d.recording));
+  kv("forward_model", jstr(d.model));
+  {
+    std::string lo = "[";
+    for (std::size_t i = 0; i < d.effects_left_out.size(); ++i)
+      lo += fmt::format("{}{{\"effect\": {}, \"why\": {}}}", i ? ", " : "",
+                        jstr(d.effects_left_out[i].first), jstr(d.effects_left_out[i].second));
+    kv("effects_left_out", lo + "]");
+  }
   std::string costs = "[";
   for (std::size_t i = 0; i < d.phases.size(); ++i)
     costs += fmt::format("{}{{\"phase\": {}, \"runs\": {}, \"wall_seconds\": {}}}", i ? ", " : "",
@@ -221,8 +229,17 @@ std::string json(const Diagnosis& d) {
 
 std::string markdown(const Diagnosis& d) {
   std::ostringstream m;
+  const bool mpm = d.model == "mpm";
+  const char* cells = mpm ? "cells" : "voxels";
   m << "# gen4d diagnose\n\n";
-  m << fmt::format("Deck `{}`, recording `{}`.\n\n", d.deck, d.recording);
+  m << fmt::format("Deck `{}`, recording `{}`; forward model: {}.\n\n", d.deck, d.recording,
+                   d.model == "mpm" ? "the MPM solver (particles on a grid)"
+                                    : "the deck's voxels (hexahedra, trapezoidal rule)");
+  if (!d.effects_left_out.empty()) {
+    m << "Effects of the library this model does not represent, not tried:";
+    for (const auto& [name, why] : d.effects_left_out) m << fmt::format(" {} ({});", name, why);
+    m << "\n\n";
+  }
   m << "## Verdict\n\n";
   if (d.verdict == "none") {
     m << "**No missing physics.** After calibrating the baseline no effect of the library "
@@ -263,11 +280,13 @@ std::string markdown(const Diagnosis& d) {
       "Noise estimate: {:.3g} m (local cubic fits over 7 samples, the lower of the recording's, "
       "{:.3g} m, and the calibrated baseline's residual's). Calibrated E = {:.4g} Pa "
       "(deck {:.4g}), nu = {:.3f} (deck {:.3f}); density kept at {:g} kg/m^3, so E/rho = {:.4g} "
-      "m^2/s^2 is what the data fix. These are effective values of the voxel model: trilinear "
-      "voxels a few to the thickness are stiffer in bending than the continuum, and E, nu "
-      "absorb that.\n\n",
+      "m^2/s^2 is what the data fix. These are effective values of the {}.\n\n",
       d.noise_position, d.noise_recording_position, d.youngs_modulus, d.youngs_nominal,
-      d.poisson_ratio, d.poisson_nominal, d.density, d.youngs_modulus / d.density);
+      d.poisson_ratio, d.poisson_nominal, d.density, d.youngs_modulus / d.density,
+      mpm ? "MPM model: a few cells to the thickness, whose particles' discretisation error E "
+            "and nu absorb"
+          : "voxel model: trilinear voxels a few to the thickness are stiffer in bending than "
+            "the continuum, and E, nu absorb that");
   if (std::isfinite(d.noise_fitted_position) || std::isfinite(d.noise_fitted_acceleration))
     m << fmt::format(
         "Noise on the fitted model's residual (the same local cubics): {} m{}. The weights "
@@ -281,10 +300,11 @@ std::string markdown(const Diagnosis& d) {
             : std::string());
   m << fmt::format(
       "Numerical dissipation check: rerunning at dt/2 changes the late-time amplitude by {:.3g} "
-      "noise sd (the trapezoidal rule adds no damping) and the late-time motion by {:.3g} noise "
+      "noise sd ({}) and the late-time motion by {:.3g} noise "
       "sd (phase, absorbed by the calibrated E); dt = {:g} s{}.\n\n",
-      d.numerical_change, d.numerical_dispersion, d.dt,
-      d.dt_halved ? ", halved because of it" : "");
+      d.numerical_change,
+      mpm ? "explicit MPM substeps, fixed for every run" : "the trapezoidal rule adds no damping",
+      d.numerical_dispersion, d.dt, d.dt_halved ? ", halved because of it" : "");
   if (d.time_step.done)
     m << fmt::format(
         "Time-step check of the selected fit: rerun at dt/2, its late-time motion moves by {:.3g} "
@@ -303,22 +323,23 @@ std::string markdown(const Diagnosis& d) {
                   d.time_step.chi2_error, d.time_step.chi2_fit, d.time_step.scan_points));
   if (d.refinement.done && d.refinement.coarse)
     m << fmt::format(
-        "Discretisation check: the calibrated baseline rerun on voxels of {:g} m ({} voxels, E "
-        "at the h voxels' rest frequency, {:.5g} Pa) puts the error of the model's own voxels "
-        "at most {:.3g} m rms ({:.3g} noise sd; the whole h-to-2h difference: the two-grid "
+        "Discretisation check: the calibrated baseline rerun on {0} of {1:g} m ({2} {0}, E "
+        "at the h {0}' rest frequency, {3:.5g} Pa) puts the error of the model's own {0} "
+        "at most {4:.3g} m rms ({5:.3g} noise sd; the whole h-to-2h difference: the two-grid "
         "convergence index with safety factor 3); every effect kept explains more held-out "
-        "chi-square than that ({:.4g}), so no h/2 run was needed.\n\n",
-        d.refinement.voxel_size, d.refinement.voxels, d.refinement.youngs_modulus, d.refinement.rms,
-        d.refinement.noise_sd, d.refinement.chi2);
+        "chi-square than that ({6:.4g}), so no h/2 run was needed.\n\n",
+        cells, d.refinement.voxel_size, d.refinement.voxels, d.refinement.youngs_modulus,
+        d.refinement.rms, d.refinement.noise_sd, d.refinement.chi2);
   else if (d.refinement.done)
     m << fmt::format(
-        "Discretisation check: the calibrated baseline rerun on voxels of {:g} m ({} voxels, E "
-        "{} {:.5g} Pa) puts the error of the model's own voxels {}{:.3g} m rms ({:.3g} "
+        "Discretisation check: the calibrated baseline rerun on {} of {:g} m ({} {}, E "
+        "{} {:.5g} Pa) puts the error of the model's own {} {}{:.3g} m rms ({:.3g} "
         "noise sd; 4/3 of the h-to-h/2 difference); an effect is kept only when it explains "
         "more held-out chi-square than that ({:.4g}){}.\n\n",
-        d.refinement.voxel_size, d.refinement.voxels,
-        d.refinement.upper_bound ? "at the h voxels' rest frequency," : "refitted to",
-        d.refinement.youngs_modulus, d.refinement.upper_bound ? "at most " : "at ",
+        cells, d.refinement.voxel_size, d.refinement.voxels, cells,
+        d.refinement.upper_bound ? (mpm ? "as calibrated," : "at the h voxels' rest frequency,")
+                                 : "refitted to",
+        d.refinement.youngs_modulus, cells, d.refinement.upper_bound ? "at most " : "at ",
         d.refinement.rms, d.refinement.noise_sd, d.refinement.chi2,
         d.refinement.upper_bound ? "; this bound already decides, so E was not refitted" : "");
   else if (!d.refinement.skipped.empty())

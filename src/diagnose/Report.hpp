@@ -111,6 +111,9 @@ struct MisfitBudget {
 
 struct Diagnosis {
   std::string deck, recording;
+  std::string model = "voxel";  //!< the forward model: voxel | mpm
+  //! Effects of the library the forward model does not represent, with the reason.
+  std::vector<std::pair<std::string, std::string>> effects_left_out;
   std::string verdict = "none";  //!< missing_physics | none | ambiguous
   std::string effect;            //!< empty: null
   std::string variant;

@@ -290,6 +290,7 @@ void Solver::grid_update(double t, double dt) {
     }
   if (!has_box_entry) walls = true;
   const double* g = opt_.gravity.data();
+  const double damp = opt_.damping > 0 ? 1.0 / (1.0 + opt_.damping * dt) : 1.0;
   for (long k = 0; k < gb.count[2]; ++k)
     for (long j = 0; j < gb.count[1]; ++j)
       for (long i = 0; i < gb.count[0]; ++i) {
@@ -302,6 +303,8 @@ void Solver::grid_update(double t, double dt) {
         }
         const double inv_m = quantum_mom_ / m;
         for (int d = 0; d < 3; ++d) v[d] = mom_[3 * n + d] * inv_m + dt * g[d];
+        if (damp != 1)
+          for (int d = 0; d < 3; ++d) v[d] *= damp;
         const long idx[3] = {gb.start[0] + i, gb.start[1] + j, gb.start[2] + k};
         const double xi[3] = {spec_.lo[0] + idx[0] * spec_.dx, spec_.lo[1] + idx[1] * spec_.dx,
                               spec_.lo[2] + idx[2] * spec_.dx};
@@ -314,9 +317,11 @@ void Solver::grid_update(double t, double dt) {
             const double* nrm = bc.normal.data();
             const double dist = (xi[0] - bc.point[0]) * nrm[0] + (xi[1] - bc.point[1]) * nrm[1] +
                                 (xi[2] - bc.point[2]) * nrm[2];
-            if (dist > 0) continue;
+            if (dist > 0 && !(dist < bc.soft_width)) continue;
+            // Blend weight of a soft collider's outer band (1 on and inside the plane).
+            const double wb = dist > 0 ? 1.0 - dist / bc.soft_width : 1.0;
             if (bc.surface == "sticky") {
-              v[0] = v[1] = v[2] = 0;
+              for (int d = 0; d < 3; ++d) v[d] -= wb * v[d];
               continue;
             }
             const double vn = dot3(v, nrm);
@@ -327,7 +332,10 @@ void Solver::grid_update(double t, double dt) {
             // Coulomb: the tangential speed drops by friction times the normal speed removed.
             const double scale =
                 vtn > 0 ? std::max(0.0, 1.0 - bc.friction * std::abs(vn) / vtn) : 0.0;
-            for (int d = 0; d < 3; ++d) v[d] = vt[d] * scale;
+            if (wb == 1.0)
+              for (int d = 0; d < 3; ++d) v[d] = vt[d] * scale;
+            else
+              for (int d = 0; d < 3; ++d) v[d] += wb * (vt[d] * scale - v[d]);
           }
         }
         if (walls)

@@ -49,6 +49,9 @@ struct SolverOptions {
   bool remove_outside = false;       //!< particles leaving the grid: removed (else clamped)
   int boundary_layers = 3;           //!< node layers of the bounding-box walls
   double max_cells_per_substep = 1;  //!< instability guard
+  //! Mass-proportional damping alpha (1/s): the grid velocity after gravity is divided by
+  //! 1 + alpha dt (implicit, stable at any alpha); 0 leaves the update untouched.
+  double damping = 0;
 };
 
 //! A `surface_collider` boundary condition (the plane through `point` with `normal` towards the

@@ -1,0 +1,353 @@
+// validate_diagnose_mpm — blind recordings for `gen4d diagnose` on MPM scenes (solver.method =
+// "mpm"): bodies that slide and strike, where the voxel model's clamps and springs do not
+// apply and the MPM solver is the forward model.
+//
+// Sample runs:
+//   build/drivers/validate_diagnose_mpm --out cases
+//   build/drivers/validate_diagnose_mpm --out cases --only slide-friction
+//   python3 drivers/validation/diagnose_blind.py score --cases cases --gen4d build/drivers/gen4d
+//
+// Description:
+//   1. Two scenes on a floor (a [[boundary]] surface_collider at z = 0 that the deck believes
+//      frictionless):
+//        slide   a jelly block (fixed corotated, 12 x 6 x 6 cm) launched along the floor at
+//                1 m/s for 1 s;
+//        strike  a bar (fixed corotated, 16 x 4 x 4 cm) thrown at the floor at 2.5 m/s,
+//                tilted, for 0.5 s: it lands on one end, rotates and rebounds.
+//   2. The recordings come from the MPM solver on a finer discretisation than the one diagnose
+//      fits: cells of h/2 (8x the particles) and half the substep, so the data carry a
+//      discretisation error of their own. A first run without any effect gives the scene's
+//      scales (the peak von Mises stress); each effect's truth is set from them:
+//        slide-friction    Coulomb friction 0.3 on the floor (the block stops in ~0.35 s);
+//        slide-damping     mass damping alpha = 2 1/s;
+//        slide-slope       the floor tilted by 3 degrees about y (gravity rotated);
+//        strike-plasticity von Mises yield at 0.3 of the elastic run's peak stress,
+//                          hardening 0.02 E;
+//        strike-law        Neo-Hookean instead of fixed corotated;
+//        and a null case per scene (only E is off).
+//   3. Markers at surface points of the h grid, sampled at 200 Hz with jittered times,
+//      Gaussian noise of 1e-4 m; the nominal deck has E off by a factor in [0.9, 1.1] and omits
+//      the effect. Each effect run is compared with the effect-free run (detect_snr, in noise
+//      sd; below 3 the case is marked not detectable).
+//   Per case, in OUT/CASE/: deck.toml, recording.csv, truth.json (diagnose_blind.py's format);
+//   OUT/cases.json lists the cases. Files are written under temporary names and renamed.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "core/Deck.hpp"
+#include "core/Error.hpp"
+#include "core/Log.hpp"
+#include "diagnose/Effects.hpp"
+#include "diagnose/MpmModel.hpp"
+#include "diagnose/Recording.hpp"
+#include "validation/DriverCommon.hpp"
+
+using namespace gen4d;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kRate = 200.0;  // samples per second
+constexpr double kNoise = 1e-4;  // m
+constexpr double kNu = 0.3, kRho = 1000.0, kG = 9.81;
+
+struct Scene {
+  std::string name;
+  Vec3d size;      // m
+  Vec3d lo;        // the body's lowest corner
+  Vec3d velocity;  // m/s
+  Vec3d grid_lo, grid_hi;
+  double E, end_time, h;
+  int markers;
+};
+
+Scene scene(const std::string& name) {
+  if (name == "slide")
+    return {"slide",
+            {0.12, 0.06, 0.06},
+            {0, 0, 0},
+            {1.0, 0, 0},
+            {-0.08, -0.1, -0.08},
+            {1.2, 0.16, 0.16},
+            1.0e5,
+            1.0,
+            0.02,
+            8};
+  return {"strike",
+          {0.16, 0.04, 0.04},
+          {0, 0, 0.04},
+          {0.5, 0, -2.5},
+          {-0.1, -0.1, -0.08},
+          {0.44, 0.14, 0.28},
+          1.0e5,
+          0.5,
+          0.02,
+          8};
+}
+
+std::string deck_text(const Scene& s, const std::string& name, double E) {
+  return fmt::format(
+      R"(# Blind MPM case {0}: nominal deck (one effect, if any, is left out).
+[simulation]
+name = "mpm-{0}"
+dt = 1e-3
+end_time = {1:.9g}
+gravity = [0, 0, {2:.9g}]
+
+[solver]
+method = "mpm"
+
+[domain]
+voxel_size = {3:.9g}
+
+[mpm]
+lo = [{4:.9g}, {5:.9g}, {6:.9g}]
+hi = [{7:.9g}, {8:.9g}, {9:.9g}]
+particles_per_axis = 2
+velocity = [{10:.9g}, {11:.9g}, {12:.9g}]
+
+[[geometry]]
+type = "box"
+lo = [{13:.9g}, {14:.9g}, {15:.9g}]
+hi = [{16:.9g}, {17:.9g}, {18:.9g}]
+
+[material]
+model = "fixed_corotated"
+youngs_modulus = {19:.9g}
+poisson_ratio = {20:.9g}
+density = {21:.9g}
+
+[[boundary]]   # the floor, believed frictionless
+type = "surface_collider"
+point = [0, 0, 0]
+normal = [0, 0, 1]
+surface = "separate"
+friction = 0
+)",
+      name, s.end_time, -kG, s.h, s.grid_lo[0], s.grid_lo[1], s.grid_lo[2], s.grid_hi[0],
+      s.grid_hi[1], s.grid_hi[2], s.velocity[0], s.velocity[1], s.velocity[2], s.lo[0], s.lo[1],
+      s.lo[2], s.lo[0] + s.size[0], s.lo[1] + s.size[1], s.lo[2] + s.size[2], E, kNu, kRho);
+}
+
+struct Case {
+  std::string name, scene, effect, variant;  // effect empty: none
+  std::vector<std::pair<std::string, double>> params;
+  std::vector<std::string> scored;
+  std::string notes;
+};
+
+void write_atomic(const fs::path& path, const std::string& text) {
+  const fs::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream f(tmp);
+    f << text;
+    if (!f.flush()) throw RuntimeError("cannot write " + tmp.string());
+  }
+  fs::rename(tmp, path);
+}
+
+std::string json_number(double v) {
+  return fmt::format("{:.9g}", v);
+}
+
+struct Options {
+  std::string out;
+  unsigned seed = 1;
+  std::vector<std::string> only;
+};
+
+int generate(const Options& o) {
+  std::mt19937_64 rng(o.seed);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  const double tilt = 3.0 * M_PI / 180;
+  const std::vector<Case> cases = {
+      {"slide-none", "slide", "", "", {}, {}, "only E is off; the data's cells are h/2"},
+      {"slide-friction",
+       "slide",
+       "contact_friction",
+       "",
+       {{"height", 0.0}, {"friction", 0.3}},
+       {"friction"},
+       "Coulomb friction 0.3 on the floor the deck believes frictionless"},
+      {"slide-damping",
+       "slide",
+       "damping",
+       "mass",
+       {{"alpha", 2.0}},
+       {"alpha"},
+       "mass damping 2 1/s"},
+      {"slide-slope",
+       "slide",
+       "gravity",
+       "",
+       {{"gx", kG * std::sin(tilt)}, {"gy", 0.0}, {"gz", -kG * std::cos(tilt)}},
+       {"gx", "gz"},
+       "the floor tilted by 3 degrees (downhill along +x)"},
+      {"strike-none", "strike", "", "", {}, {}, "only E is off; the data's cells are h/2"},
+      {"strike-plasticity",
+       "strike",
+       "plasticity",
+       "",
+       {{"yield_stress", 0.3}, {"hardening", 0.02}},  // scaled below
+       {"yield_stress"},
+       "von Mises yield at 0.3 of the elastic run's peak stress, hardening 0.02 E"},
+      {"strike-law", "strike", "material_law", "neo_hookean", {}, {}, "Neo-Hookean data"},
+  };
+  for (const auto& name : o.only)
+    if (std::none_of(cases.begin(), cases.end(), [&](const Case& c) { return c.name == name; }))
+      throw InputError(fmt::format("--only: unknown case '{}'", name));
+  fs::create_directories(o.out);
+  std::string listing;
+  for (const std::string scene_name : {"slide", "strike"}) {
+    const Scene s = scene(scene_name);
+    bool wanted = o.only.empty();
+    for (const auto& c : cases)
+      wanted = wanted || (c.scene == scene_name &&
+                          std::find(o.only.begin(), o.only.end(), c.name) != o.only.end());
+    // The recording's model: cells of h/2 (and so half the substep), the true E.
+    Config fine = parse_deck(deck_text(s, "truth", s.E), "<mpm truth deck>", ".", {});
+    fine.voxel_size = 0.5 * s.h;
+    const diagnose::MpmModel model(fine);
+    const diagnose::Physics nominal = model.nominal();
+    // Markers: points of the h grid on the body's faces (not the floor side), random.
+    std::vector<Vec3d> markers;
+    const std::array<int, 3> n = {static_cast<int>(std::lround(s.size[0] / s.h)),
+                                  static_cast<int>(std::lround(s.size[1] / s.h)),
+                                  static_cast<int>(std::lround(s.size[2] / s.h))};
+    for (int m = 0; m < s.markers; ++m) {
+      const int face = static_cast<int>(uni(rng) * 3) % 3;  // top, y = 0 side, y = W side
+      Vec3d X = s.lo;
+      X[0] += s.h * (static_cast<int>(uni(rng) * (n[0] + 1)) % (n[0] + 1));
+      if (face == 0) {
+        X[1] += s.h * (static_cast<int>(uni(rng) * (n[1] + 1)) % (n[1] + 1));
+        X[2] += s.size[2];
+      } else {
+        X[1] += face == 1 ? 0.0 : s.size[1];
+        X[2] += s.h * (static_cast<int>(uni(rng) * (n[2] + 1)) % (n[2] + 1));
+      }
+      markers.push_back(X);
+    }
+    std::vector<double> times;
+    for (int k = 0; k <= static_cast<int>(std::lround(s.end_time * kRate)); ++k)
+      times.push_back(std::clamp((k + 0.4 * (uni(rng) - 0.5)) / kRate, 0.0, s.end_time));
+    std::sort(times.begin(), times.end());
+    std::vector<diagnose::ChannelRequest> req;
+    for (const Vec3d& X : markers) req.push_back({model.attach(X), false, times});
+    if (!wanted) {
+      for (const auto& c : cases)  // keep the draws of the other scene's cases
+        if (c.scene == scene_name) uni(rng), rng();
+      continue;
+    }
+    log::info("scene {}: effect-free run, cells of h/2, substep {:.3g} s", scene_name,
+              model.substep());
+    const diagnose::Trace free = model.run(nominal, req);
+    if (!free.ok) throw RuntimeError("the effect-free run failed: " + free.failure);
+    log::info("scene {}: peak von Mises stress {:.4g} Pa, peak speed {:.4g} m/s", scene_name,
+              free.max_mises, free.max_speed);
+    for (const Case& c : cases) {
+      if (c.scene != scene_name) continue;
+      const double E_factor = 0.9 + 0.2 * uni(rng);
+      const unsigned noise_seed = static_cast<unsigned>(rng());
+      if (!o.only.empty() && std::find(o.only.begin(), o.only.end(), c.name) == o.only.end())
+        continue;
+      diagnose::Physics ph = nominal;
+      std::vector<std::pair<std::string, double>> params = c.params;
+      if (c.effect == "plasticity") {
+        params[0].second *= free.max_mises;
+        params[1].second *= s.E;
+      }
+      if (!c.effect.empty()) {
+        diagnose::EffectContext ctx;
+        ctx.model = &model;
+        ctx.base = nominal;
+        ctx.max_mises = free.max_mises;
+        std::vector<double> values;
+        for (const auto& kv : params) values.push_back(kv.second);
+        diagnose::find_effect(c.effect).apply(c.variant, values, ctx, ph);
+      }
+      log::info("case {}: {}", c.name, c.notes);
+      const diagnose::Trace tr = c.effect.empty() ? free : model.run(ph, req);
+      if (!tr.ok)
+        throw RuntimeError(fmt::format("case {}: the run failed: {}", c.name, tr.failure));
+      double diff2 = 0;
+      std::size_t nv = 0;
+      for (std::size_t m = 0; m < markers.size(); ++m)
+        for (std::size_t k = 0; k < 3 * times.size(); ++k, ++nv)
+          diff2 += std::pow(tr.channel[m][k] - free.channel[m][k], 2);
+      const double snr = std::sqrt(diff2 / static_cast<double>(nv)) / kNoise;
+      std::mt19937_64 nrng(noise_seed);
+      std::normal_distribution<double> noise(0.0, kNoise);
+      diagnose::Recording rec;
+      for (std::size_t m = 0; m < markers.size(); ++m) {
+        diagnose::Channel ch;
+        ch.id = std::to_string(m);
+        ch.X = {markers[m][0], markers[m][1], markers[m][2]};
+        ch.t = times;
+        for (std::size_t k = 0; k < times.size(); ++k)
+          ch.value.push_back({tr.channel[m][3 * k] + noise(nrng),
+                              tr.channel[m][3 * k + 1] + noise(nrng),
+                              tr.channel[m][3 * k + 2] + noise(nrng)});
+        rec.channels.push_back(std::move(ch));
+      }
+      const fs::path dir = fs::path(o.out) / c.name;
+      fs::create_directories(dir);
+      const double E_nom = s.E * E_factor;
+      diagnose::write_recording_csv(rec, (dir / "recording.csv").string());
+      write_atomic(dir / "deck.toml", deck_text(s, c.name, E_nom));
+      std::string pj, scored;
+      for (const auto& [k, v] : params)
+        pj += fmt::format("{}\"{}\": {}", pj.empty() ? "" : ", ", k, json_number(v));
+      for (const auto& k : c.scored)
+        scored += fmt::format("{}\"{}\"", scored.empty() ? "" : ", ", k);
+      const bool detectable = c.effect.empty() || snr >= 3.0;
+      const std::string effect = c.effect.empty() ? "null" : "\"" + c.effect + "\"";
+      write_atomic(
+          dir / "truth.json",
+          fmt::format(
+              "{{\n  \"effect\": {},\n  \"variant\": {},\n  \"parameters\": {{{}}},\n"
+              "  \"scored_parameters\": [{}],\n  \"region\": null,\n  \"E_true\": {},\n"
+              "  \"E_nominal\": {},\n  \"noise_sigma\": {},\n"
+              "  \"element\": \"gen4d MPM, cells h/2, dt/2\",\n  \"notes\": \"{}\",\n"
+              "  \"detectable\": {},\n  \"detect_snr\": {},\n  \"separability\": null\n}}\n",
+              effect, c.variant.empty() ? "null" : "\"" + c.variant + "\"", pj, scored,
+              json_number(s.E), json_number(E_nom), json_number(kNoise), c.notes,
+              detectable ? "true" : "false", c.effect.empty() ? "null" : json_number(snr)));
+      log::info(
+          "case {}: E nominal {:.4g} (x{:.3f}), markers differ from the effect-free run by "
+          "{:.3g} noise sd{}",
+          c.name, E_nom, E_factor, snr, detectable ? "" : " (marked not detectable)");
+      listing += fmt::format("{}    {{\"name\": \"{}\", \"effect\": {}}}",
+                             listing.empty() ? "" : ",\n", c.name, effect);
+    }
+  }
+  write_atomic(fs::path(o.out) / "cases.json",
+               fmt::format("{{\n  \"set\": \"mpm\",\n  \"seed\": {},\n  \"element\": "
+                           "\"gen4d MPM h/2\",\n  \"cases\": [\n{}\n  ]\n}}\n",
+                           o.seed, listing));
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  return driver::main_with(
+      argc, argv, "Blind recordings of MPM scenes for gen4d diagnose, from the MPM solver at h/2",
+      [&](CLI::App& app) {
+        app.add_option("--out", o.out, "Output folder (cases.json and one folder per case)")
+            ->required();
+        app.add_option("--seed", o.seed, "Random seed (E factors, markers, sample times, noise)");
+        app.add_option("--only", o.only, "Generate only these cases")->take_all();
+      },
+      [&]() {
+        int rank = 0;
+        MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+        return rank == 0 ? generate(o) : 0;
+      });
+}

@@ -1,0 +1,351 @@
+// Tests of gen4d diagnose on MPM decks: the MPM solver as the forward model (markers follow the
+// particles, the library's effects reduce to the deck at their null values, the friction plane
+// stops a sliding block where Coulomb says, runs spread over ranks match local runs), the
+// refusals (voxel-only effects, accelerometers), and a diagnosis end to end: a block sliding on
+// a floor the deck believes frictionless.
+#include <gtest/gtest.h>
+#include <mpi.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <regex>
+#include <sstream>
+
+#include "core/Deck.hpp"
+#include "core/Error.hpp"
+#include "diagnose/Diagnose.hpp"
+#include "diagnose/Effects.hpp"
+#include "diagnose/Fit.hpp"
+#include "diagnose/MpmModel.hpp"
+#include "diagnose/Recording.hpp"
+
+using namespace gen4d;
+using namespace gen4d::diagnose;
+
+namespace {
+
+// A jelly block (8 x 4 x 4 cm, 4 x 2 x 2 cells of 2 cm, 8 particles per cell) launched at 1 m/s
+// along a floor at z = 0 that the deck believes frictionless.
+const char* kSlide = R"(
+[simulation]
+name = "slide"
+dt = 1e-3
+end_time = 0.6
+gravity = [0, 0, -9.81]
+[solver]
+method = "mpm"
+[domain]
+voxel_size = 0.02
+[mpm]
+lo = [-0.08, -0.1, -0.08]
+hi = [0.9, 0.14, 0.14]
+particles_per_axis = 2
+velocity = [1.0, 0, 0]
+[[geometry]]
+type = "box"
+lo = [0, 0, 0]
+hi = [0.08, 0.04, 0.04]
+[material]
+model = "fixed_corotated"
+youngs_modulus = 1e5
+poisson_ratio = 0.3
+density = 1000
+[[boundary]]
+type = "surface_collider"
+point = [0, 0, 0]
+normal = [0, 0, 1]
+surface = "separate"
+friction = 0
+)";
+
+Config slide_deck(const std::string& text = kSlide) {
+  return parse_deck(text, "<slide deck>", ".");
+}
+
+std::vector<ChannelRequest> requests(const ForwardModel& m, const std::vector<Vec3d>& X, int n,
+                                     double dt) {
+  std::vector<ChannelRequest> req;
+  for (const Vec3d& x : X) {
+    ChannelRequest q;
+    q.at = m.attach(x);
+    for (int k = 0; k <= n; ++k) q.t.push_back(dt * k);
+    req.push_back(q);
+  }
+  return req;
+}
+
+std::string file_text(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+const std::vector<Vec3d> kMarkers = {{0.0, 0.0, 0.04},  {0.04, 0.02, 0.04}, {0.08, 0.04, 0.04},
+                                     {0.02, 0.0, 0.02}, {0.06, 0.04, 0.02}, {0.08, 0.0, 0.0}};
+
+}  // namespace
+
+TEST(DiagnoseMpmModel, RestStaysAtRestAndAFreeBlockFallsAsGravitySays) {
+  std::string text =
+      std::regex_replace(kSlide, std::regex("velocity = \\[1.0, 0, 0\\]"), "velocity = [0, 0, 0]");
+  text = std::regex_replace(text, std::regex("lo = \\[0, 0, 0\\]"), "lo = [0, 0, 0.06]");
+  text =
+      std::regex_replace(text, std::regex("hi = \\[0.08, 0.04, 0.04\\]"), "hi = [0.08, 0.04, 0.1]");
+  const MpmModel m(slide_deck(text));
+  const std::vector<Vec3d> X = {{0.04, 0.02, 0.1}, {0.0, 0.0, 0.06}};
+  const auto req = requests(m, X, 8, 0.01);
+  Physics rest = m.nominal();
+  rest.gravity = {0, 0, 0};
+  const Trace still = m.run(rest, req);
+  ASSERT_TRUE(still.ok) << still.failure;
+  for (std::size_t c = 0; c < X.size(); ++c)
+    for (std::size_t k = 0; k < req[c].t.size(); ++k)
+      for (int a = 0; a < 3; ++a) EXPECT_NEAR(still.channel[c][3 * k + a], X[c][a], 1e-12);
+  // Falling freely (the kernels of the lowest particles, 6.5 cm up, reach the floor's nodes
+  // after 0.09 s; here 0.08 s): symplectic Euler's
+  // z = z0 - g dt^2 n (n + 1) / 2, within g t dt of the continuum's g t^2 / 2.
+  const Trace fall = m.run(m.nominal(), req);
+  ASSERT_TRUE(fall.ok) << fall.failure;
+  const double g = 9.81, dt = m.substep();
+  for (std::size_t c = 0; c < X.size(); ++c) {
+    const double t = req[c].t.back();
+    const double z = fall.channel[c][3 * (req[c].t.size() - 1) + 2];
+    EXPECT_NEAR(z, X[c][2] - 0.5 * g * t * t, g * t * dt + 1e-9);
+    EXPECT_NEAR(fall.channel[c][3 * (req[c].t.size() - 1)], X[c][0], 1e-12);
+  }
+}
+
+TEST(DiagnoseMpmModel, EveryEffectItModelsIsTheDeckAtItsNullValue) {
+  const Config cfg = slide_deck();
+  const MpmModel m(cfg);
+  const auto req = requests(m, kMarkers, 30, 0.01);
+  const Physics base = m.nominal();
+  const Trace ref = m.run(base, req);
+  ASSERT_TRUE(ref.ok) << ref.failure;
+  EffectContext ctx;
+  ctx.model = &m;
+  ctx.base = base;
+  ctx.omega = 20;
+  ctx.max_mises = ref.max_mises;
+  ctx.max_speed = ref.max_speed;
+  ctx.amplitude = 0.01;
+  ctx.lowest_point = 0;
+  ctx.total_mass = m.volume() * base.density;
+  ctx.surface_area = m.exposed_area();
+  int modelled = 0;
+  for (const auto& e : effect_library()) {
+    const bool voxel_only = e->name() == "viscoelasticity" || e->name() == "heterogeneity" ||
+                            e->name() == "clamp_compliance" || e->name() == "air_drag" ||
+                            e->name() == "coulomb_damping";
+    EXPECT_EQ(m.models(e->name(), ""), !voxel_only) << e->name();
+    if (voxel_only) continue;
+    for (const auto& var : e->variants(ctx)) {
+      if (!m.models(e->name(), var)) {
+        EXPECT_EQ(e->name() + ":" + var, "damping:" + var);  // only mass damping
+        EXPECT_NE(var, "mass");
+        continue;
+      }
+      if (e->name() == "material_law") continue;  // no null value: another law
+      Physics ph = base;
+      e->apply(var, e->null_values(ctx, var), ctx, ph);
+      const Trace tr = m.run(ph, req);
+      ASSERT_TRUE(tr.ok) << e->name() << ": " << tr.failure;
+      EXPECT_EQ(tr.channel, ref.channel) << e->name() << " " << var;
+      ++modelled;
+    }
+  }
+  EXPECT_EQ(modelled, 4);  // damping (mass), plasticity, gravity, contact_friction
+  // The other laws run, and move the markers.
+  Physics neo = base;
+  neo.law = "neo_hookean";
+  const Trace tn = m.run(neo, req);
+  ASSERT_TRUE(tn.ok);
+  EXPECT_NE(tn.channel, ref.channel);
+}
+
+TEST(DiagnoseMpmModel, AFrictionPlaneStopsASlidingBlockWhereCoulombSays) {
+  const MpmModel m(slide_deck());
+  const auto req = requests(m, {{0.04, 0.02, 0.04}}, 60, 0.01);
+  auto slid = [&](double height, double mu) {
+    Physics ph = m.nominal();
+    ph.ground = true;
+    ph.ground_height = height;
+    ph.ground_friction = mu;
+    const Trace tr = m.run(ph, req);
+    EXPECT_TRUE(tr.ok) << tr.failure;
+    return tr.channel[0][3 * 60] - 0.04;
+  };
+  // v0^2 / (2 mu g) = 0.170 m at mu 0.3, 0.102 m at 0.5.
+  for (const double mu : {0.3, 0.5}) {
+    const double d = slid(0.0, mu), coulomb = 1.0 / (2 * mu * 9.81);
+    EXPECT_NEAR(d / coulomb, 1.0, 0.05) << "mu " << mu << ": slid " << d << " m";
+  }
+  // The plane's height acts continuously: blended over one cell above it, the block slides
+  // farther the lower it lies; a plane two cells below the floor, past the kernels of the
+  // lowest particles (whose nodes carry mass down to a cell below the floor), leaves it
+  // sliding as on the deck's frictionless floor, bit for bit.
+  const double d0 = slid(0.0, 0.3), d1 = slid(-0.005, 0.3), d2 = slid(-0.01, 0.3);
+  EXPECT_LT(d0, d1);
+  EXPECT_LT(d1, d2);
+  EXPECT_NEAR(slid(-1e-4, 0.3), d0, 0.02 * d0);
+  const double free = slid(-0.5, 0.3);
+  EXPECT_EQ(slid(-0.041, 0.3), free);
+  EXPECT_NEAR(free, 0.6, 1e-3);
+}
+
+TEST(DiagnoseMpmModel, RanksShareRunsBitForBit) {
+  const Config cfg = slide_deck();
+  const MpmModel m(cfg);
+  Observations obs;
+  obs.requests = requests(m, kMarkers, 20, 0.01);
+  for (std::size_t c = 0; c < obs.requests.size(); ++c)
+    for (std::size_t k = 0; k < obs.requests[c].t.size(); ++k)
+      for (int a = 0; a < 3; ++a) {
+        obs.y.push_back(0);
+        obs.t.push_back(obs.requests[c].t[k]);
+        obs.channel.push_back(static_cast<int>(c));
+        obs.component.push_back(a);
+        obs.sigma.push_back(1e-4);
+        obs.train.push_back(1);
+        obs.heldout.push_back(0);
+      }
+  std::vector<Physics> batch(3, m.nominal());
+  batch[1].ground = true;
+  batch[1].ground_friction = 0.4;
+  batch[2].rayleigh_alpha = 3;
+  Evaluator ev(MPI_COMM_WORLD, m, obs);
+  const auto got = ev.run(batch);
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    const Trace local = m.run(batch[i], obs.requests);
+    ASSERT_TRUE(got[i].ok && local.ok);
+    std::vector<double> flat;
+    for (const auto& ch : local.channel) flat.insert(flat.end(), ch.begin(), ch.end());
+    EXPECT_EQ(got[i].y, flat) << i;
+  }
+}
+
+TEST(DiagnoseMpm, RefusesVoxelOnlyEffectsAccelerometersAndVoxelOnlyDeckSections) {
+  int rank = 0, size = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  const std::string dir = "diagnose_mpm_refusals_np" + std::to_string(size);
+  const Config cfg = slide_deck();
+  const MpmModel m(cfg);
+  Recording rec;
+  for (int s = 0; s < 2; ++s) {
+    Channel ch;
+    ch.kind = s == 0 ? ChannelKind::Position : ChannelKind::Acceleration;
+    ch.id = s == 0 ? "m0" : "a0";
+    ch.X = {0.04, 0.02, 0.04};
+    for (int k = 0; k <= 20; ++k) {
+      ch.t.push_back(0.01 * k);
+      ch.value.push_back({0.04 + 0.01 * k + 1e-4 * std::sin(k), 0.02, 0.04});
+    }
+    rec.channels.push_back(ch);
+  }
+  if (rank == 0) {
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    write_recording_csv(rec, dir + "/rec.csv");  // the sensor goes to rec-acc.csv
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  DiagnoseOptions opt;
+  opt.recordings = {dir + "/rec.csv", dir + "/rec-acc.csv"};
+  opt.out_dir = dir + "/out";
+  opt.effects = {"contact_friction", "air_drag"};
+  try {
+    run_diagnose(MPI_COMM_WORLD, cfg, opt);
+    ADD_FAILURE() << "air_drag on an MPM deck was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--effects air_drag: the mpm model"), std::string::npos)
+        << e.what();
+  }
+  opt.effects = {"contact_friction"};
+  try {
+    run_diagnose(MPI_COMM_WORLD, cfg, opt);
+    ADD_FAILURE() << "an accelerometer on an MPM deck was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("sensor 'a0': the mpm model samples marker positions"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(opt.out_dir + "/report.json"));
+  // Voxel-solver sections in an MPM deck are refused by name.
+  const std::string fixed = std::string(kSlide) + "[[fixed]]\nlo = [-1, -1, -1]\nhi = [0, 1, 1]\n";
+  try {
+    MpmModel bad(slide_deck(fixed));
+    ADD_FAILURE() << "[[fixed]] in an MPM deck was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("[[fixed]] does not apply"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(DiagnoseMpmEndToEnd, FindsFrictionOnAFloorTheDeckBelievedFrictionless) {
+  // The recording: the same block on a floor with Coulomb friction 0.3, from a finer MPM
+  // discretisation (27 particles per cell, half the substep), so it carries an error of its
+  // own; the deck's E is 6 % low.
+  int rank = 0, size = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  const Config truth_cfg = slide_deck();
+  const double dt = MpmModel(truth_cfg).substep();
+  Config fine = truth_cfg;
+  fine.mpm.particles_per_axis = 3;
+  fine.mpm.substep = "fixed";
+  fine.dt = 0.5 * dt;
+  const MpmModel truth_model(fine);
+  Physics truth = truth_model.nominal();
+  truth.ground = true;
+  truth.ground_height = 0;
+  truth.ground_friction = 0.3;
+  const auto req = requests(truth_model, kMarkers, 60, 0.01);
+  const Trace tr = truth_model.run(truth, req);
+  ASSERT_TRUE(tr.ok) << tr.failure;
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0, 1e-4);
+  Recording rec;
+  for (std::size_t c = 0; c < req.size(); ++c) {
+    Channel ch;
+    ch.id = "m" + std::to_string(c);
+    ch.X = {kMarkers[c][0], kMarkers[c][1], kMarkers[c][2]};
+    for (std::size_t k = 0; k < req[c].t.size(); ++k) {
+      ch.t.push_back(req[c].t[k]);
+      ch.value.push_back({tr.channel[c][3 * k] + noise(rng), tr.channel[c][3 * k + 1] + noise(rng),
+                          tr.channel[c][3 * k + 2] + noise(rng)});
+    }
+    rec.channels.push_back(ch);
+  }
+  const std::string dir = "diagnose_mpm_slide_np" + std::to_string(size);
+  if (rank == 0) {
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    write_recording_csv(rec, dir + "/rec.csv");
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  const Config cfg = slide_deck(
+      std::regex_replace(kSlide, std::regex("youngs_modulus = 1e5"), "youngs_modulus = 9.4e4"));
+  DiagnoseOptions opt;
+  opt.recordings = {dir + "/rec.csv"};
+  opt.out_dir = dir + "/out";
+  EXPECT_EQ(run_diagnose(MPI_COMM_WORLD, cfg, opt), 0);
+  if (rank != 0) return;
+  const std::string js = file_text(opt.out_dir + "/report.json");
+  EXPECT_NE(js.find("\"verdict\": \"missing_physics\""), std::string::npos) << js.substr(0, 800);
+  EXPECT_NE(js.find("\"effect\": \"contact_friction\""), std::string::npos) << js.substr(0, 800);
+  EXPECT_NE(js.find("\"forward_model\": \"mpm\""), std::string::npos);
+  EXPECT_NE(js.find("{\"effect\": \"air_drag\", \"why\": \"a term of the voxel model only\"}"),
+            std::string::npos);
+  std::smatch mt;
+  ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"friction\": \\{\"value\": ([-0-9.e+]+)")));
+  EXPECT_NEAR(std::stod(mt[1].str()), 0.3, 0.03);
+  ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"heldout_rms_before\": ([-0-9.e+]+)")));
+  const double before = std::stod(mt[1].str());
+  ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"heldout_rms_after\": ([-0-9.e+]+)")));
+  EXPECT_LT(std::stod(mt[1].str()), 0.05 * before);
+  const std::string md = file_text(opt.out_dir + "/report.md");
+  EXPECT_NE(md.find("forward model: the MPM solver"), std::string::npos);
+}
