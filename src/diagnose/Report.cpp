@@ -80,6 +80,14 @@ std::string jparams(const std::vector<ParamEstimate>& ps, const std::string& var
   return s + "}";
 }
 
+//! The discretisation check's error of the model, in noise sd rms, above which the effect's
+//! parameters are reported as effective values of the model's cells (their intervals are
+//! conditional on them): where the voxels or MPM cells are coarse for the motion.
+constexpr double kEffectiveAboveNoise = 3.0;
+bool model_error_dominates(const Diagnosis& d) {
+  return d.refinement.done && d.refinement.noise_sd > kEffectiveAboveNoise;
+}
+
 std::string json(const Diagnosis& d) {
   std::string s = "{\n";
   auto kv = [&](const std::string& k, const std::string& v, bool last = false) {
@@ -162,6 +170,7 @@ std::string json(const Diagnosis& d) {
                    jstr(r.coarse ? "2h (grid convergence index, Fs 3)" : "h/2 (Richardson)"),
                    jnum(r.voxel_size), r.voxels, r.channels, jnum(r.youngs_modulus), jnum(r.rms),
                    jnum(r.noise_sd), jnum(r.chi2), r.upper_bound ? "true" : "false", r.runs));
+    kv("parameters_effective", model_error_dominates(d) ? "true" : "false");
   }
   {
     const MisfitBudget& b = d.budget;
@@ -263,6 +272,13 @@ std::string markdown(const Diagnosis& d) {
                          p.ci_lo, p.ci_at_bound_lo ? " (bound)" : "", p.ci_hi,
                          p.ci_at_bound_hi ? " (bound)" : "");
       m << "\n";
+      if (model_error_dominates(d))
+        m << fmt::format(
+            "These values are effective ones of the model's {0}: the discretisation check "
+            "puts the {0}' own error at {1:.3g} noise sd rms ({2:.3g} m), more than {3:g} "
+            "times the noise, and the intervals are conditional on the {0} (they do not include "
+            "that error). Finer {0} (domain.voxel_size) would measure them.\n\n",
+            cells, d.refinement.noise_sd, d.refinement.rms, kEffectiveAboveNoise);
     }
     if (d.has_region)
       m << fmt::format("Region: [{:.4g}, {:.4g}, {:.4g}] to [{:.4g}, {:.4g}, {:.4g}] m.\n\n",
