@@ -45,10 +45,13 @@
 #include "diagnose/Effects.hpp"
 #include "diagnose/Model.hpp"
 #include "diagnose/Recording.hpp"
+#include "validation/BlindCases.hpp"
 #include "validation/DriverCommon.hpp"
 
 using namespace gen4d;
 namespace fs = std::filesystem;
+using driver::json_number;
+using driver::write_atomic;
 
 namespace {
 
@@ -115,21 +118,6 @@ struct Case {
   std::vector<std::string> scored;
   std::string notes;
 };
-
-// Writes `text` to `path` under a temporary name, then renames it.
-void write_atomic(const fs::path& path, const std::string& text) {
-  const fs::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream f(tmp);
-    f << text;
-    if (!f.flush()) throw RuntimeError("cannot write " + tmp.string());
-  }
-  fs::rename(tmp, path);
-}
-
-std::string json_number(double v) {
-  return fmt::format("{:.9g}", v);
-}
 
 struct Options {
   std::string out, set = "full";
@@ -257,27 +245,9 @@ int generate(const Options& o) {
     log::info("case {}: {}", c.name, c.notes);
     const diagnose::Trace tr = c.effect.empty() ? free : model.run(ph, req);
     if (!tr.ok) throw RuntimeError(fmt::format("case {}: the run failed: {}", c.name, tr.failure));
-    double diff2 = 0;
-    std::size_t nv = 0;
-    for (std::size_t m = 0; m < markers.size(); ++m)
-      for (std::size_t k = 0; k < 3 * times.size(); ++k, ++nv)
-        diff2 += std::pow(tr.channel[m][k] - free.channel[m][k], 2);
-    const double snr = std::sqrt(diff2 / static_cast<double>(nv)) / b.noise;
-
-    std::mt19937_64 nrng(noise_seed);
-    std::normal_distribution<double> noise(0.0, b.noise);
-    diagnose::Recording rec;
-    for (std::size_t m = 0; m < markers.size(); ++m) {
-      diagnose::Channel ch;
-      ch.id = std::to_string(m);
-      ch.X = {markers[m][0], markers[m][1], markers[m][2]};
-      ch.t = times;
-      for (std::size_t k = 0; k < times.size(); ++k)
-        ch.value.push_back({tr.channel[m][3 * k] + noise(nrng),
-                            tr.channel[m][3 * k + 1] + noise(nrng),
-                            tr.channel[m][3 * k + 2] + noise(nrng)});
-      rec.channels.push_back(std::move(ch));
-    }
+    const double snr = driver::rms_apart(markers.size(), tr, free, b.noise);
+    const diagnose::Recording rec =
+        driver::noisy_recording(markers, times, tr, b.noise, noise_seed);
     const fs::path dir = fs::path(o.out) / c.name;
     fs::create_directories(dir);
     const double E_nom = b.E * E_factor;

@@ -49,10 +49,13 @@
 #include "diagnose/Effects.hpp"
 #include "diagnose/MpmModel.hpp"
 #include "diagnose/Recording.hpp"
+#include "validation/BlindCases.hpp"
 #include "validation/DriverCommon.hpp"
 
 using namespace gen4d;
 namespace fs = std::filesystem;
+using driver::json_number;
+using driver::write_atomic;
 
 namespace {
 
@@ -144,20 +147,6 @@ struct Case {
   std::vector<std::string> scored;
   std::string notes;
 };
-
-void write_atomic(const fs::path& path, const std::string& text) {
-  const fs::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream f(tmp);
-    f << text;
-    if (!f.flush()) throw RuntimeError("cannot write " + tmp.string());
-  }
-  fs::rename(tmp, path);
-}
-
-std::string json_number(double v) {
-  return fmt::format("{:.9g}", v);
-}
 
 struct Options {
   std::string out;
@@ -262,12 +251,7 @@ int generate(const Options& o) {
     for (const Vec3d& X : markers) creq.push_back({coarse.attach(X), false, times});
     const diagnose::Trace at_h = coarse.run(coarse.nominal(), creq);
     if (!at_h.ok) throw RuntimeError("the effect-free run at h failed: " + at_h.failure);
-    double e2 = 0;
-    std::size_t ne = 0;
-    for (std::size_t m = 0; m < markers.size(); ++m)
-      for (std::size_t k = 0; k < 3 * times.size(); ++k, ++ne)
-        e2 += std::pow(at_h.channel[m][k] - free.channel[m][k], 2);
-    const double model_error = std::sqrt(e2 / static_cast<double>(ne)) / kNoise;
+    const double model_error = driver::rms_apart(markers.size(), at_h, free, kNoise);
     log::info("scene {}: the deck's cells (h) differ from h/2 by {:.3g} noise sd rms", scene_name,
               model_error);
     for (const Case& c : cases) {
@@ -295,26 +279,9 @@ int generate(const Options& o) {
       const diagnose::Trace tr = c.effect.empty() ? free : model.run(ph, req);
       if (!tr.ok)
         throw RuntimeError(fmt::format("case {}: the run failed: {}", c.name, tr.failure));
-      double diff2 = 0;
-      std::size_t nv = 0;
-      for (std::size_t m = 0; m < markers.size(); ++m)
-        for (std::size_t k = 0; k < 3 * times.size(); ++k, ++nv)
-          diff2 += std::pow(tr.channel[m][k] - free.channel[m][k], 2);
-      const double snr = std::sqrt(diff2 / static_cast<double>(nv)) / kNoise;
-      std::mt19937_64 nrng(noise_seed);
-      std::normal_distribution<double> noise(0.0, kNoise);
-      diagnose::Recording rec;
-      for (std::size_t m = 0; m < markers.size(); ++m) {
-        diagnose::Channel ch;
-        ch.id = std::to_string(m);
-        ch.X = {markers[m][0], markers[m][1], markers[m][2]};
-        ch.t = times;
-        for (std::size_t k = 0; k < times.size(); ++k)
-          ch.value.push_back({tr.channel[m][3 * k] + noise(nrng),
-                              tr.channel[m][3 * k + 1] + noise(nrng),
-                              tr.channel[m][3 * k + 2] + noise(nrng)});
-        rec.channels.push_back(std::move(ch));
-      }
+      const double snr = driver::rms_apart(markers.size(), tr, free, kNoise);
+      const diagnose::Recording rec =
+          driver::noisy_recording(markers, times, tr, kNoise, noise_seed);
       const fs::path dir = fs::path(o.out) / c.name;
       fs::create_directories(dir);
       const double E_nom = s.E * E_factor;
