@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -33,6 +34,17 @@ inline void write_atomic(const std::filesystem::path& path, const std::string& t
 
 inline std::string json_number(double v) {
   return fmt::format("{:.9g}", v);
+}
+
+//! Sample times k / rate for k = 0 .. end * rate, each jittered by up to 0.2 / rate (uniform,
+//! drawn from `rng`), clamped to [0, end] and sorted.
+inline std::vector<double> jittered_times(double end, double rate, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  std::vector<double> times;
+  for (int k = 0; k <= static_cast<int>(std::lround(end * rate)); ++k)
+    times.push_back(std::clamp((k + 0.4 * (uni(rng) - 0.5)) / rate, 0.0, end));
+  std::sort(times.begin(), times.end());
+  return times;
 }
 
 //! The first markers.size() channels of `tr` (positions at `times`) plus Gaussian noise of sd

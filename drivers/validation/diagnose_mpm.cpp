@@ -226,10 +226,7 @@ int generate(const Options& o) {
       }
       markers.push_back(X);
     }
-    std::vector<double> times;
-    for (int k = 0; k <= static_cast<int>(std::lround(s.end_time * kRate)); ++k)
-      times.push_back(std::clamp((k + 0.4 * (uni(rng) - 0.5)) / kRate, 0.0, s.end_time));
-    std::sort(times.begin(), times.end());
+    const std::vector<double> times = driver::jittered_times(s.end_time, kRate, rng);
     std::vector<diagnose::ChannelRequest> req;
     for (const Vec3d& X : markers) req.push_back({model.attach(X), false, times});
     if (!wanted) {
