@@ -233,7 +233,6 @@ Trace MpmModel::run(const Physics& ph, const std::vector<ChannelRequest>& req) c
     };
     std::vector<std::size_t> next(req.size(), 0);  // next sample of each channel
     std::vector<double> prev, cur;
-    positions(prev);
     double t = 0;
     auto sample = [&](double t0, double t1, bool last) {
       for (std::size_t c = 0; c < req.size(); ++c)
@@ -262,28 +261,31 @@ Trace MpmModel::run(const Physics& ph, const std::vector<ChannelRequest>& req) c
         tr.max_speed = std::max(tr.max_speed, std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]));
       }
     };
-    cur = prev;
+    positions(cur);
+    prev = cur;
     sample(0, 0, false);  // samples at t = 0
     const long steps = static_cast<long>(std::ceil(t_end / ph.dt - 1e-9));
     for (long k = 0; k < steps; ++k) {
       const double dt = std::min(ph.dt, t_end - t);
       if (!(dt > 0)) break;
-      solver.substep(t, dt);
-      ++tr.steps;
-      if (P.size() != index.size()) reindex();
       const double t1 = (k + 1 == steps) ? t_end : t + dt;
-      positions(cur);
+      // Markers are located only around substeps a sample falls in (at 200 Hz, one in ~20).
       bool any = false;
       for (std::size_t c = 0; c < req.size(); ++c)
         any = any || (next[c] < req[c].t.size() && req[c].t[next[c]] <= t1);
+      if (any) positions(prev);  // at t, before the substep
+      solver.substep(t, dt);
+      ++tr.steps;
+      if (P.size() != index.size()) reindex();
       if (any) {
+        positions(cur);
         sample(t, t1, false);
         stresses();
       }
       t = t1;
-      std::swap(prev, cur);
     }
-    cur = prev;
+    positions(cur);
+    prev = cur;
     sample(t, t, true);
     for (const auto& ch : tr.channel)
       for (double x : ch)
