@@ -1097,6 +1097,21 @@ TEST(DiagnoseFit, RefinementCheckMeasuresTheErrorTheVoxelsLeaveAfterCalibration)
   EXPECT_EQ(Rf.voxels, 8 * m.voxels());
   EXPECT_EQ(Rf.runs, R.runs + 2);
   EXPECT_EQ(Rf.chi2, R.chi2);
+  // Linearised from the pair (the selected fit's own check, before the intervals): where the
+  // Gauss-Newton step stays near the pair, no third run, and the error it measures is the one
+  // the full check measures (both are the closest of their runs to the h run, the linearised
+  // prediction among them). Measured: 2 runs, 1.001x the full check's chi-square.
+  const RefinementCheck Rl =
+      refinement_check(MPI_COMM_WORLD, cfg, obs, X, pb.physics(cal.z), cal.pred, obs.train,
+                       m.load_events().back(), 0.0, true);
+  std::printf("linearised check: chi2 %.4g (full %.4g), E %.5g (full %.5g), %ld runs\n", Rl.chi2,
+              R.chi2, Rl.youngs_modulus, R.youngs_modulus, Rl.runs);
+  ASSERT_TRUE(Rl.done) << Rl.skipped;
+  EXPECT_TRUE(Rl.linearised);
+  EXPECT_EQ(Rl.runs, 2);
+  EXPECT_NEAR(Rl.chi2 / R.chi2, 1.0, 0.1);
+  EXPECT_GT(Rl.chi2, 0.5 * cal.chi2);
+  EXPECT_LT(Rl.chi2, 2.0 * cal.chi2);
 }
 
 TEST(DiagnoseFit, HorizonStopsRunsAndContinuationFitsAStiffRootFromOutOfPhase) {

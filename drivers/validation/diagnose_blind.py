@@ -1160,12 +1160,16 @@ def score_case(truth, rep):
         res["rms_reduction"] = (1.0 - after / before) if before and after is not None else None
     if eff_t is not None and (eff_r == eff_t or (inseparable and rep.get("effect") == eff_t)):
         got = rep.get("effect_parameters") or {}
-        errs = {}
+        errs, covered = {}, {}
         for name in truth["scored_parameters"]:
             true = truth["parameters"][name]
             val = (got.get(name) or {}).get("value")
             errs[name] = abs(val - true) / abs(true) if val is not None else None
+            ci = (got.get(name) or {}).get("ci95")
+            covered[name] = ci[0] <= true <= ci[1] if ci else None
         res["param_errors"] = errs
+        # Whether the reported 95 % interval holds the truth (reported, not a target).
+        res["ci95_covers"] = covered
         if eff_t == "heterogeneity":
             res["iou"] = box_iou(truth["region"], rep["region"]) if rep.get("region") else 0.0
     return res
@@ -1209,7 +1213,10 @@ def summarize(results):
         extra = []
         for name, e in (r.get("param_errors") or {}).items():
             ok &= e is not None and e <= TARGETS["param_error"]
-            extra.append("%s %s" % (name, "missing" if e is None else "%.1f%%" % (100 * e)))
+            cov = (r.get("ci95_covers") or {}).get(name)
+            extra.append("%s %s%s" % (name, "missing" if e is None else "%.1f%%" % (100 * e),
+                                      "" if cov is None else
+                                      " (ci95 holds the truth)" if cov else " (ci95 misses it)"))
         if "iou" in r:
             ok &= r["iou"] >= TARGETS["iou"]
             extra.append("IoU %.2f" % r["iou"])
@@ -1221,6 +1228,10 @@ def summarize(results):
         print("%-22s %-16s %-16s %8s %10.1f %s" % (r["case"], label(r["true"]),
                                                   label(r["reported"]), red_s,
                                                   r["wall_s"], "; ".join(extra)))
+    cover = [c for r in results for c in (r.get("ci95_covers") or {}).values() if c is not None]
+    if cover:
+        print("\nreported 95 %% intervals holding the true parameter: %d of %d"
+              % (sum(cover), len(cover)))
     print("\ntargets: rms reduction >= %.0f%%, parameters within %.0f%%, IoU >= %.1f"
           % (100 * TARGETS["rms_reduction"], 100 * TARGETS["param_error"], TARGETS["iou"]))
     return dict(fraction_correct=correct, false_discoveries=fd), bool(ok)

@@ -50,12 +50,14 @@ struct RefinementCheck;
 //! baseline is run on voxels of 2h (E at the h voxels' rest frequency): the whole h-to-2h
 //! difference bounds the h model's error (the two-grid convergence index, safety factor 3),
 //! and when that bound is below decided_below it is reported (coarse, upper_bound) and no h/2
-//! run is made.
+//! run is made. With linear_refit, E's Gauss-Newton step from the pair is not run where it
+//! stays within kLinearRefitReach steps of the pair (the pair's linearisation, exact to first
+//! order there, gives the refitted error: two h/2 runs instead of four).
 RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observations& obs,
                                  const std::vector<std::array<double, 3>>& X,
                                  const Physics& calibrated, const Prediction& base_pred,
                                  const std::vector<char>& scored, double t_free,
-                                 double decided_below = 0);
+                                 double decided_below = 0, bool linear_refit = false);
 
 struct MisfitBudget;
 //! What a missing effect could explain at most of the calibrated baseline's misfit over the

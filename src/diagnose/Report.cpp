@@ -73,19 +73,14 @@ std::string jparams(const std::vector<ParamEstimate>& ps, const std::string& var
                        jnum(p.ci_hi), p.ci_at_bound_lo ? "true" : "false",
                        p.ci_at_bound_hi ? "true" : "false");
     if (with_ci && p.ci_time_step) s += ", \"ci95_from_time_step_error\": true";
+    if (with_ci && p.ci_model_error) s += ", \"ci95_from_model_error\": true";
+    if (with_ci && std::isfinite(p.ci_noise_lo))
+      s += fmt::format(", \"ci95_noise_only\": [{}, {}]", jnum(p.ci_noise_lo), jnum(p.ci_noise_hi));
     if (with_ci && p.ci_scanned) s += ", \"ci95_spans_scan\": true";
     if (!p.unit.empty()) s += ", \"unit\": " + jstr(p.unit);
     s += "}";
   }
   return s + "}";
-}
-
-//! The discretisation check's error of the model, in noise sd rms, above which the effect's
-//! parameters are reported as effective values of the model's cells (their intervals are
-//! conditional on them): where the voxels or MPM cells are coarse for the motion.
-constexpr double kEffectiveAboveNoise = 3.0;
-bool model_error_dominates(const Diagnosis& d) {
-  return d.refinement.done && d.refinement.noise_sd > kEffectiveAboveNoise;
 }
 
 std::string json(const Diagnosis& d) {
@@ -149,14 +144,12 @@ std::string json(const Diagnosis& d) {
   {
     const TimeStepCheck& t = d.time_step;
     kv("time_step_check",
-       !t.done
-           ? "null"
-           : fmt::format("{{\"dt_half_late_difference_in_noise_sd\": {}, \"threshold\": {}, "
-                         "\"depends_on_dt\": {}, \"chi2_time_step_error\": {}, "
-                         "\"chi2_fit\": {}, \"runs\": {}, \"scan_points\": {}, "
-                         "\"scan_runs\": {}}}",
-                         jnum(t.dispersion), jnum(t.threshold), t.flagged ? "true" : "false",
-                         jnum(t.chi2_error), jnum(t.chi2_fit), t.runs, t.scan_points, t.scan_runs));
+       !t.done ? "null"
+               : fmt::format("{{\"dt_half_late_difference_in_noise_sd\": {}, \"threshold\": {}, "
+                             "\"depends_on_dt\": {}, \"chi2_time_step_error\": {}, "
+                             "\"chi2_fit\": {}, \"runs\": {}}}",
+                             jnum(t.dispersion), jnum(t.threshold), t.flagged ? "true" : "false",
+                             jnum(t.chi2_error), jnum(t.chi2_fit), t.runs));
   }
   {
     const RefinementCheck& r = d.refinement;
@@ -171,6 +164,27 @@ std::string json(const Diagnosis& d) {
                    jnum(r.voxel_size), r.voxels, r.channels, jnum(r.youngs_modulus), jnum(r.rms),
                    jnum(r.noise_sd), jnum(r.chi2), r.upper_bound ? "true" : "false", r.runs));
     kv("parameters_effective", model_error_dominates(d) ? "true" : "false");
+  }
+  {
+    const IntervalBasis& ib = d.intervals;
+    const RefinementCheck& f = ib.fit_refinement;
+    kv("intervals",
+       fmt::format("{{\"threshold_from\": {}, \"threshold_in_residual_variances\": {}, "
+                   "\"residual_variance\": {}, \"chi2_time_step_error\": {}, "
+                   "\"chi2_cells_error\": {}, \"fit_discretisation_check\": {}, "
+                   "\"scan_points\": {}, \"scan_runs\": {}}}",
+                   jstr(ib.from), jnum(ib.threshold), jnum(ib.s2), jnum(ib.chi2_time_step),
+                   jnum(ib.chi2_cells),
+                   !(f.done || !f.skipped.empty())
+                       ? std::string("null")
+                       : fmt::format("{{\"done\": {}, \"skipped\": {}, \"voxel_size\": {}, "
+                                     "\"youngs_modulus_refitted\": {}, \"error_rms\": {}, "
+                                     "\"error_in_noise_sd\": {}, \"error_chi2_fitted\": {}, "
+                                     "\"refit_linearised\": {}, \"runs\": {}}}",
+                                     f.done ? "true" : "false", jstr(f.skipped), jnum(f.voxel_size),
+                                     jnum(f.youngs_modulus), jnum(f.rms), jnum(f.noise_sd),
+                                     jnum(f.chi2), f.linearised ? "true" : "false", f.runs),
+                   ib.scan_points, ib.scan_runs));
   }
   {
     const MisfitBudget& b = d.budget;
@@ -272,13 +286,47 @@ std::string markdown(const Diagnosis& d) {
                          p.ci_lo, p.ci_at_bound_lo ? " (bound)" : "", p.ci_hi,
                          p.ci_at_bound_hi ? " (bound)" : "");
       m << "\n";
+      const RefinementCheck& f = d.intervals.fit_refinement;
       if (model_error_dominates(d))
         m << fmt::format(
             "These values are effective ones of the model's {0}: the discretisation check "
-            "puts the {0}' own error at {1:.3g} noise sd rms ({2:.3g} m), more than {3:g} "
-            "times the noise, and the intervals are conditional on the {0} (they do not include "
-            "that error). Finer {0} (domain.voxel_size) would measure them.\n\n",
-            cells, d.refinement.noise_sd, d.refinement.rms, kEffectiveAboveNoise);
+            "puts the {0}' own error {1}{2:.3g} noise sd rms ({3:.3g} m), more than {4:g} "
+            "times the noise. Finer {0} (domain.voxel_size) would measure them.\n\n",
+            cells, d.refinement.upper_bound ? "at most " : "at ", d.refinement.noise_sd,
+            d.refinement.rms, kEffectiveAboveNoise);
+      const IntervalBasis& ib = d.intervals;
+      if (ib.from != "noise") {
+        std::string parts;
+        if (ib.chi2_time_step > 0)
+          parts += fmt::format(
+              "the time step's, chi-square {:.4g} (the fit rerun at dt/2, 4/3 of "
+              "the difference{})",
+              ib.chi2_time_step, d.time_step.flagged ? "" : ", its part along E left out");
+        if (ib.chi2_cells > 0)
+          parts += fmt::format(
+              "{}the {}', chi-square {:.4g} (the fit rerun on {} of h/2, E "
+              "refitted{}, {:.3g} noise sd rms)",
+              parts.empty() ? "" : ", and ", cells, ib.chi2_cells, cells,
+              f.linearised ? " by the linearisation of a pair of runs" : "", f.noise_sd);
+        m << fmt::format(
+            "The intervals include the model's own error on the fitted values: {}. A bias of "
+            "the parameters can hide behind that much chi-square, so it is the intervals' "
+            "threshold ({:.4g} residual variances instead of 3.84): parameter values closer "
+            "than that cannot be told apart by this model. The noise alone would give the "
+            "narrower `ci95_noise_only` of report.json, conditional on the model.\n\n",
+            parts, ib.threshold);
+      } else if (f.done) {
+        m << fmt::format(
+            "The selected fit rerun on {0} of h/2 (E refitted) differs by {1:.3g} noise sd "
+            "rms (chi-square {2:.4g} on the fitted values), within the intervals' "
+            "threshold.\n\n",
+            cells, f.noise_sd, f.chi2);
+      }
+      if (!f.done && !f.skipped.empty())
+        m << fmt::format(
+            "The intervals do not include the model's {} error: it was not measured for the "
+            "selected fit ({}).\n\n",
+            cells == std::string("cells") ? "cells'" : "voxels'", f.skipped);
     }
     if (d.has_region)
       m << fmt::format("Region: [{:.4g}, {:.4g}, {:.4g}] to [{:.4g}, {:.4g}, {:.4g}] m.\n\n",
@@ -330,13 +378,17 @@ std::string markdown(const Diagnosis& d) {
             ? "; its parameters do not depend on the step"
             : fmt::format(
                   "; the fit depends on its time step. Its error (chi-square {:.4g}, 4/3 of the "
-                  "dt-to-dt/2 difference, against the fit's {:.4g}) is the intervals' threshold: "
+                  "dt-to-dt/2 difference, against the fit's {:.4g}) {}: "
                   "parameter values closer than that cannot be told apart at this step, so read "
                   "the intervals as what this recording and this step can tell, not as a "
                   "measurement. The chi-square is rough on that scale, so each interval also "
                   "spans a scan of the parameter's range ({} values, the others held at the "
                   "fit): the values within the threshold, widened to their neighbours",
-                  d.time_step.chi2_error, d.time_step.chi2_fit, d.time_step.scan_points));
+                  d.time_step.chi2_error, d.time_step.chi2_fit,
+                  d.intervals.from == "time_step_error"
+                      ? "sets the intervals' threshold (above)"
+                      : "is part of the intervals' threshold (above)",
+                  d.intervals.scan_points));
   if (d.refinement.done && d.refinement.coarse)
     m << fmt::format(
         "Discretisation check: the calibrated baseline rerun on {0} of {1:g} m ({2} {0}, E "

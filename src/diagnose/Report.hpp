@@ -17,11 +17,17 @@ struct ParamEstimate {
   double value = 0;
   double ci_lo = 0, ci_hi = 0;  //!< 95 % profile-likelihood interval
   bool ci_at_bound_lo = false, ci_at_bound_hi = false;
-  //! The interval's threshold is the fit's own time-step error (TimeStepCheck), not the
-  //! noise's 3.84.
+  //! The interval's threshold is the model's own error, not the noise's 3.84 (IntervalBasis),
+  //! and holds the fit's time-step error (TimeStepCheck) ...
   bool ci_time_step = false;
-  //! The interval also spans a scan of the parameter's range (the fit depends on its time
-  //! step, and its chi-square is rough on the scale of the step's error).
+  //! ... and its cells' error (the selected fit rerun on cells of h/2).
+  bool ci_model_error = false;
+  //! Where the threshold is not the noise's: the interval at the noise's threshold alone, on
+  //! the same quadratic profiles (conditional on the model).
+  double ci_noise_lo = std::numeric_limits<double>::quiet_NaN();
+  double ci_noise_hi = std::numeric_limits<double>::quiet_NaN();
+  //! The interval also spans a scan of the parameter's range (its threshold is the time
+  //! step's or the model's error, and chi-square is rough on that scale).
   bool ci_scanned = false;
 };
 
@@ -40,9 +46,6 @@ struct TimeStepCheck {
   double chi2_error = std::numeric_limits<double>::quiet_NaN();  //!< the step's error
   double chi2_fit = std::numeric_limits<double>::quiet_NaN();    //!< the fit's chi-square
   long runs = 0;
-  //! Flagged: each effect parameter's range scanned at this many values (step 7), in runs.
-  int scan_points = 0;
-  long scan_runs = 0;
 };
 
 //! One refitted candidate.
@@ -88,6 +91,7 @@ struct RefinementCheck {
   double noise_sd = 0;       //!< rms of the error in noise sd
   double rms = 0;            //!< rms of the error over position values, m
   bool upper_bound = false;  //!< E not refitted: the first pair already decided (chi2 a bound)
+  bool linearised = false;   //!< E refitted by the pair's linearisation (no third run)
   //! Decided on voxels of 2h (voxel_size): the grid convergence index of the h-to-2h
   //! difference (safety factor 3) bounds the error, and no h/2 run was needed.
   bool coarse = false;
@@ -108,6 +112,30 @@ struct MisfitBudget {
   double bound = 0;        //!< most an effect could explain (margins included)
   bool exhausted = false;  //!< bound <= the discretisation check's chi2: nothing refitted
 };
+
+//! The threshold of the effect parameters' profile intervals and what set it. The noise's
+//! 3.84 (in units of the fit's residual variance s2) holds where the model's own error is
+//! below the noise. Else the selected fit's own error sets it: rerun at dt/2 and on cells of
+//! h/2 (E refitted, the part of the error E cannot absorb, 4/3 of the difference), over the
+//! fitted values. A bias of the effect parameters moves chi-square by at most that error (in
+//! the linear range), so values closer than it cannot be told apart by this model.
+struct IntervalBasis {
+  std::string from = "noise";  //!< noise | time_step_error | model_error (the larger part)
+  //! The model's own error on the fitted values: the time step's (the selected fit at dt/2,
+  //! 4/3 of the difference, its part along E left out where the fit does not depend on the
+  //! step) and the cells' (fit_refinement); their sum over s2 is the threshold when above 3.84.
+  double chi2_time_step = 0, chi2_cells = 0;
+  double threshold = 3.84;  //!< chi-square above the fit, in units of s2
+  double s2 = std::numeric_limits<double>::quiet_NaN();  //!< residual variance per value
+  RefinementCheck fit_refinement;                        //!< the selected fit at h/2
+  //! Each effect parameter's range scanned at this many values (threshold not the noise's).
+  int scan_points = 0;
+  long scan_runs = 0;
+};
+
+//! The discretisation check's error above this many noise sd rms: the model's cells are
+//! coarse for the motion, and its parameters are effective values of them.
+constexpr double kEffectiveAboveNoise = 3.0;
 
 struct Diagnosis {
   std::string deck, recording;
@@ -153,6 +181,7 @@ struct Diagnosis {
   bool dt_halved = false;
   TimeStepCheck time_step;
   RefinementCheck refinement;
+  IntervalBasis intervals;
   MisfitBudget budget;
   std::vector<Signature> signatures;
   std::vector<Candidate> candidates;  //!< screened (gain) and refitted ones
@@ -184,6 +213,11 @@ struct Diagnosis {
   Prediction baseline_pred, fitted_pred;
   BoxRegion body;
 };
+
+//! The discretisation check puts the model's own error above kEffectiveAboveNoise noise sd.
+inline bool model_error_dominates(const Diagnosis& d) {
+  return d.refinement.done && d.refinement.noise_sd > kEffectiveAboveNoise;
+}
 
 //! Writes report.json, report.md, fit.csv and the PNGs into dir (rank 0 only).
 void write_reports(const std::string& dir, const Diagnosis& d, const Observations& obs);
