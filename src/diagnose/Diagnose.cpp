@@ -2545,7 +2545,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   // in the record as the numerical check compares the deck's. Where it moved by far more, the
   // fit's parameters depend on the step: what separates two parameter values is then their
   // chi-square difference against the step's own, 4/3 of the dt-to-dt/2 difference (second
-  // order), which sets the intervals' threshold below.
+  // order), and chi-square is rough on that scale (scans, step 7). Either way the step's error
+  // is part of the model's own error that bounds the intervals (7).
   Prediction half_fit;  // the selected fit at dt/2 (its error also bounds the intervals, 7)
   if (best && !best->params.empty()) {
     TimeStepCheck& T = D.time_step;
@@ -2584,7 +2585,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   // threshold hold only the noise's share of what the parameters do not know: where the
   // model's own error is larger, they miss the truth (the blind MPM strike: a yield stress
   // 43 % low with an interval of +-2 %; the slide's mass damping 0.03 % off, an interval of
-  // +-0.005 %, its cells' error 1.2 noise sd rms over 9600 values). The selected fit is rerun
+  // +-0.005 %, its cells' error 0.45 noise sd rms over 9600 values). The selected fit is rerun
   // on cells of h/2, E refitted there (the part of the error E can absorb shifts E, not the
   // effect's parameters; linearised from the pair where close, two h/2 runs), over the fitted
   // values: that error bounds the chi-square a bias of the effect's parameters can hide
