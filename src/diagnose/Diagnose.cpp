@@ -2611,6 +2611,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
                : "not measured: " + F.skipped);
     phase_done("fit's discretisation check (h/2 reruns)");
     D.phases.back().runs = F.runs;  // the fine model's runs (ev counts none)
+  } else if (best && !best->params.empty() && !opt.refinement_check) {
+    D.intervals.fit_refinement.skipped = "switched off (--no-refinement-check)";
   }
 
   // 7. Profile-likelihood intervals of the selected effect's parameters (others re-optimised
