@@ -2752,6 +2752,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     for (std::size_t q = 0; q < specs.size(); ++q) {
       const std::size_t j = 2 + q;
       ParamEstimate& pe = D.effect_parameters[q];
+      pe.ci_time_step = IB.chi2_time_step > 0 && IB.from != "noise";
+      pe.ci_model_error = IB.chi2_cells > 0 && IB.from != "noise";
       for (int s = 0; s < 2; ++s) {
         const std::size_t idx = 2 * q + static_cast<std::size_t>(s);
         const double dz = zends[idx][j] - best->z[j];
@@ -2788,8 +2790,6 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
           if (zend <= pr.lo[j] || zend >= pr.hi[j]) at_bound = true;
         }
         zend = std::clamp(zend, pr.lo[j], pr.hi[j]);
-        pe.ci_time_step = IB.chi2_time_step > 0 && IB.from != "noise";
-        pe.ci_model_error = IB.chi2_cells > 0 && IB.from != "noise";
         const double v = from_z(specs[q], zend);
         if (s == 0)
           pe.ci_lo = v, pe.ci_at_bound_lo = at_bound;

@@ -324,9 +324,9 @@ std::string markdown(const Diagnosis& d) {
       }
       if (!f.done && !f.skipped.empty())
         m << fmt::format(
-            "The intervals do not include the model's {} error: it was not measured for the "
+            "The intervals do not include the model's {}' error: it was not measured for the "
             "selected fit ({}).\n\n",
-            cells == std::string("cells") ? "cells'" : "voxels'", f.skipped);
+            cells, f.skipped);
     }
     if (d.has_region)
       m << fmt::format("Region: [{:.4g}, {:.4g}, {:.4g}] to [{:.4g}, {:.4g}, {:.4g}] m.\n\n",

@@ -26,8 +26,8 @@ struct ParamEstimate {
   //! the same quadratic profiles (conditional on the model).
   double ci_noise_lo = std::numeric_limits<double>::quiet_NaN();
   double ci_noise_hi = std::numeric_limits<double>::quiet_NaN();
-  //! The interval also spans a scan of the parameter's range (its threshold is the time
-  //! step's or the model's error, and chi-square is rough on that scale).
+  //! The interval also spans a scan of the parameter's range (the fit depends on its time
+  //! step, and its chi-square is rough on the scale of the step's error).
   bool ci_scanned = false;
 };
 
@@ -128,7 +128,7 @@ struct IntervalBasis {
   double threshold = 3.84;  //!< chi-square above the fit, in units of s2
   double s2 = std::numeric_limits<double>::quiet_NaN();  //!< residual variance per value
   RefinementCheck fit_refinement;                        //!< the selected fit at h/2
-  //! Each effect parameter's range scanned at this many values (threshold not the noise's).
+  //! Each effect parameter's range scanned at this many values (the fit depends on its step).
   int scan_points = 0;
   long scan_runs = 0;
 };
