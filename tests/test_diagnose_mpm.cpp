@@ -135,19 +135,15 @@ TEST(DiagnoseMpmModel, EveryEffectItModelsIsTheDeckAtItsNullValue) {
   ctx.lowest_point = 0;
   ctx.total_mass = m.volume() * base.density;
   ctx.surface_area = m.exposed_area();
+  ctx.has_region = true;
+  ctx.region = m.bounds();
   int modelled = 0;
   for (const auto& e : effect_library()) {
-    const bool voxel_only = e->name() == "viscoelasticity" || e->name() == "heterogeneity" ||
-                            e->name() == "clamp_compliance" || e->name() == "air_drag" ||
-                            e->name() == "coulomb_damping";
+    const bool voxel_only = e->name() == "clamp_compliance";
     EXPECT_EQ(m.models(e->name(), ""), !voxel_only) << e->name();
     if (voxel_only) continue;
     for (const auto& var : e->variants(ctx)) {
-      if (!m.models(e->name(), var)) {
-        EXPECT_EQ(e->name() + ":" + var, "damping:" + var);  // only mass damping
-        EXPECT_NE(var, "mass");
-        continue;
-      }
+      ASSERT_TRUE(m.models(e->name(), var)) << e->name() << ":" << var;
       if (e->name() == "material_law") continue;  // no null value: another law
       Physics ph = base;
       e->apply(var, e->null_values(ctx, var), ctx, ph);
@@ -157,7 +153,9 @@ TEST(DiagnoseMpmModel, EveryEffectItModelsIsTheDeckAtItsNullValue) {
       ++modelled;
     }
   }
-  EXPECT_EQ(modelled, 4);  // damping (mass), plasticity, gravity, contact_friction
+  // damping (mass, stiffness, rayleigh), viscoelasticity, plasticity, heterogeneity, gravity,
+  // contact_friction, air_drag, coulomb_damping
+  EXPECT_EQ(modelled, 10);
   // The other laws run, and move the markers.
   Physics neo = base;
   neo.law = "neo_hookean";
@@ -196,6 +194,122 @@ TEST(DiagnoseMpmModel, AFrictionPlaneStopsASlidingBlockWhereCoulombSays) {
   EXPECT_NEAR(free, 0.6, 1e-3);
 }
 
+namespace {
+
+//! The slide block lifted off the floor (its lowest particles 6 cm up), flying at `v` with
+//! gravity `g`: a rigid body, whatever acts on it.
+MpmModel flying_block(const std::string& v, const std::string& g) {
+  std::string text =
+      std::regex_replace(kSlide, std::regex("velocity = \\[1.0, 0, 0\\]"), "velocity = " + v);
+  text = std::regex_replace(text, std::regex("gravity = \\[0, 0, -9.81\\]"), "gravity = " + g);
+  text = std::regex_replace(text, std::regex("lo = \\[0, 0, 0\\]"), "lo = [0, 0, 0.06]");
+  text =
+      std::regex_replace(text, std::regex("hi = \\[0.08, 0.04, 0.04\\]"), "hi = [0.08, 0.04, 0.1]");
+  return MpmModel(slide_deck(text));
+}
+
+}  // namespace
+
+TEST(DiagnoseMpmModel, AirDragAndDryFrictionSlowAFlyingBlockAsTheirLawsSay) {
+  // No gravity, 1 m/s along x: the block is rigid, and its particles' exposed areas sum to the
+  // box's surface, 2 (8 x 4) + 2 (8 x 4) + 2 (4 x 4) cm^2 = 0.016 m^2, for 0.128 kg.
+  const MpmModel m = flying_block("[1.0, 0, 0]", "[0, 0, 0]");
+  EXPECT_NEAR(m.exposed_area(), 0.016, 1e-12);
+  const double A = 0.016, mass = 0.128, T = 0.5;
+  const auto req = requests(m, {{0.04, 0.02, 0.1}}, 50, 0.01);
+  auto travelled = [&](const Physics& ph) {
+    const Trace tr = m.run(ph, req);
+    EXPECT_TRUE(tr.ok) << tr.failure;
+    return tr.channel[0][3 * 50] - 0.04;
+  };
+  EXPECT_NEAR(travelled(m.nominal()), T, 1e-9);
+  // Linear drag c: v = v0 exp(-k t), k = c A / m = 2 1/s; x = v0 (1 - exp(-k T)) / k.
+  Physics lin = m.nominal();
+  lin.drag_linear = 2.0 * mass / A;
+  const double x_lin = (1 - std::exp(-2.0 * T)) / 2.0;
+  EXPECT_NEAR(travelled(lin) / x_lin, 1.0, 2e-3) << "linear drag";
+  // Quadratic drag: v = v0 / (1 + k v0 t), k = c A / m = 3 1/m; x = log(1 + k v0 T) / k.
+  Physics quad = m.nominal();
+  quad.drag_quadratic = 3.0 * mass / A;
+  EXPECT_NEAR(travelled(quad) / (std::log(1 + 3.0 * T) / 3.0), 1.0, 2e-3) << "quadratic drag";
+  // Dry friction a_c = 4 m/s^2: the block stops after v0^2 / (2 a_c) = 0.125 m, at 0.25 s.
+  Physics dry = m.nominal();
+  dry.coulomb_accel = 4.0;
+  EXPECT_NEAR(travelled(dry) / 0.125, 1.0, 1e-2) << "dry friction";
+}
+
+TEST(DiagnoseMpmModel, ARegionFactorAPronyTermAndStiffnessDampingActOnTheStress) {
+  // The slide block under gravity on the floor: it sags and rings while it slides.
+  const MpmModel m(slide_deck());
+  const auto req = requests(m, kMarkers, 30, 0.01);
+  const Physics base = m.nominal();
+  const Trace ref = m.run(base, req);
+  ASSERT_TRUE(ref.ok);
+  auto max_apart = [&](const Trace& a, const Trace& b) {
+    double d = 0;
+    for (std::size_t c = 0; c < a.channel.size(); ++c)
+      for (std::size_t k = 0; k < a.channel[c].size(); ++k)
+        d = std::max(d, std::abs(a.channel[c][k] - b.channel[c][k]));
+    return d;
+  };
+  auto run = [&](const Physics& ph) {
+    const Trace tr = m.run(ph, req);
+    EXPECT_TRUE(tr.ok) << tr.failure;
+    return tr;
+  };
+  // A region holding the whole body at factor 1.5 is the body at 1.5 E (the elastic laws'
+  // stresses are linear in E at the same nu), to rounding; half the body moves the markers.
+  Physics whole = base;
+  whole.has_region = true;
+  whole.region = m.bounds();
+  whole.region_factor = 1.5;
+  Physics stiffer = base;
+  stiffer.youngs_modulus *= 1.5;
+  const Trace t_stiff = run(stiffer);
+  EXPECT_LT(max_apart(run(whole), t_stiff), 1e-9);
+  EXPECT_GT(max_apart(t_stiff, ref), 2e-5) << max_apart(t_stiff, ref);
+  Physics half = whole;
+  half.region.hi[0] = 0.04;
+  const Trace t_half = run(half);
+  EXPECT_GT(max_apart(t_half, ref), 5e-6) << max_apart(t_half, ref);
+  EXPECT_GT(max_apart(t_half, t_stiff), 5e-6) << max_apart(t_half, t_stiff);
+  // A Prony term relaxing far faster than the substep is the body at (1 - g) E; one relaxing
+  // far slower is the elastic body (the relaxing stress is carried in the particle's rotated
+  // frame, so the sliding block's rigid motion leaves it alone).
+  Physics fast = base;
+  fast.prony_g = 0.4;
+  fast.prony_tau = 1e-9;
+  Physics softer = base;
+  softer.youngs_modulus *= 0.6;
+  const Trace t_soft = run(softer);
+  EXPECT_LT(max_apart(run(fast), t_soft), 1e-6);
+  Physics slow = fast;
+  slow.prony_tau = 1e9;
+  EXPECT_LT(max_apart(run(slow), ref), 1e-6);
+  // Stiffness damping acts on the rate of deformation only: it does not slow the flying
+  // block's rigid translation, and it damps the sag's ringing of the sliding one.
+  const MpmModel fly = flying_block("[1.0, 0, 0]", "[0, 0, 0]");
+  const auto freq = requests(fly, {{0.04, 0.02, 0.1}}, 30, 0.01);
+  Physics fb = fly.nominal();
+  fb.rayleigh_beta = 1e-3;
+  const Trace t_fly = fly.run(fb, freq), t_fly0 = fly.run(fly.nominal(), freq);
+  ASSERT_TRUE(t_fly.ok && t_fly0.ok) << t_fly.failure << t_fly0.failure;
+  EXPECT_LT(max_apart(t_fly, t_fly0), 1e-9);
+  Physics damped = base;
+  damped.rayleigh_beta = 1e-3;
+  const Trace t_damped = run(damped);
+  // The top centre marker's vertical ringing about its late mean, over the last 0.1 s.
+  auto ringing = [&](const Trace& tr) {
+    const auto& z = tr.channel[1];
+    double mean = 0, var = 0;
+    for (int k = 20; k <= 30; ++k) mean += z[3 * k + 2] / 11;
+    for (int k = 20; k <= 30; ++k) var += std::pow(z[3 * k + 2] - mean, 2) / 11;
+    return std::sqrt(var);
+  };
+  EXPECT_LT(ringing(t_damped), 0.5 * ringing(ref))
+      << ringing(t_damped) << " against " << ringing(ref);
+}
+
 TEST(DiagnoseMpmModel, RanksShareRunsBitForBit) {
   const Config cfg = slide_deck();
   const MpmModel m(cfg);
@@ -227,7 +341,7 @@ TEST(DiagnoseMpmModel, RanksShareRunsBitForBit) {
   }
 }
 
-TEST(DiagnoseMpm, RefusesVoxelOnlyEffectsAccelerometersAndVoxelOnlyDeckSections) {
+TEST(DiagnoseMpm, RefusesClampComplianceAccelerometersAndVoxelOnlyDeckSections) {
   int rank = 0, size = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &size);
@@ -255,13 +369,15 @@ TEST(DiagnoseMpm, RefusesVoxelOnlyEffectsAccelerometersAndVoxelOnlyDeckSections)
   DiagnoseOptions opt;
   opt.recordings = {dir + "/rec.csv", dir + "/rec-acc.csv"};
   opt.out_dir = dir + "/out";
-  opt.effects = {"contact_friction", "air_drag"};
+  opt.effects = {"contact_friction", "clamp_compliance"};
   try {
     run_diagnose(MPI_COMM_WORLD, cfg, opt);
-    ADD_FAILURE() << "air_drag on an MPM deck was accepted";
+    ADD_FAILURE() << "clamp_compliance on an MPM deck was accepted";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("--effects air_drag: the mpm model"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("--effects clamp_compliance: the mpm model"),
+              std::string::npos)
         << e.what();
+    EXPECT_NE(std::string(e.what()).find("no [[fixed]] supports"), std::string::npos) << e.what();
   }
   opt.effects = {"contact_friction"};
   try {
@@ -362,7 +478,8 @@ TEST(DiagnoseMpmEndToEnd, FindsFrictionOnAFloorTheDeckBelievedFrictionless) {
   // The cells' own error (the h/2 rerun) is below the noise here: the parameters are measured,
   // not effective values of coarse cells.
   EXPECT_NE(js.find("\"parameters_effective\": false"), std::string::npos);
-  EXPECT_NE(js.find("{\"effect\": \"air_drag\", \"why\": \"a term of the voxel model only\"}"),
+  EXPECT_NE(js.find("{\"effect\": \"clamp_compliance\", \"why\": \"an MPM deck has no [[fixed]] "
+                    "supports (its [[boundary]] conditions are kinematic)\"}"),
             std::string::npos);
   std::smatch mt;
   ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"friction\": \\{\"value\": ([-0-9.e+]+)")));

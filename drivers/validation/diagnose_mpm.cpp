@@ -8,7 +8,7 @@
 //   python3 drivers/validation/diagnose_blind.py score --cases cases --gen4d build/drivers/gen4d
 //
 // Description:
-//   1. Two scenes on a floor (a [[boundary]] surface_collider at z = 0 that the deck believes
+//   1. Scenes on a floor (a [[boundary]] surface_collider at z = 0 that the deck believes
 //      frictionless):
 //        slide   a jelly block (fixed corotated, 12 x 6 x 6 cm) launched along the floor at
 //                1 m/s for 1 s;
@@ -24,6 +24,11 @@
 //        strike-plasticity von Mises yield at 0.3 of the elastic run's peak stress,
 //                          hardening 0.02 E;
 //        strike-law        Neo-Hookean instead of fixed corotated;
+//      and a third scene, the slide's block and floor again with draws of its own, for the
+//      effects that act on every particle (so that the first two scenes' cases stay as they
+//      were generated before):
+//        drift-drag          quadratic surface drag 5 kg/m^3 (a dense medium);
+//        drift-dry-friction  dry friction 0.5 m/s^2 on every particle, not the floor's;
 //        and a null case per scene (only E is off).
 //   3. Markers at surface points of the h grid, sampled at 200 Hz with jittered times,
 //      Gaussian noise of 1e-4 m; the nominal deck has E off by a factor in [0.9, 1.1] and omits
@@ -85,6 +90,11 @@ Scene scene(const std::string& name) {
             1.0,
             0.02,
             8};
+  if (name == "drift") {  // the slide's block and floor, with draws of its own
+    Scene d = scene("slide");
+    d.name = "drift";
+    return d;
+  }
   return {"strike",
           {0.16, 0.04, 0.04},
           {0, 0, 0.04},
@@ -191,13 +201,29 @@ int generate(const Options& o) {
        {"yield_stress"},
        "von Mises yield at 0.3 of the elastic run's peak stress, hardening 0.02 E"},
       {"strike-law", "strike", "material_law", "neo_hookean", {}, {}, "Neo-Hookean data"},
+      {"drift-drag",
+       "drift",
+       "air_drag",
+       "",
+       {{"linear", 0.0}, {"quadratic", 5.0}},
+       {"quadratic"},
+       "quadratic surface drag 5 kg/m^3 (a dense medium; air is about 0.6): the block slows "
+       "as v0 / (1 + k v0 t), k = 0.42 1/m"},
+      {"drift-dry-friction",
+       "drift",
+       "coulomb_damping",
+       "",
+       {{"friction_accel", 0.5}},
+       {"friction_accel"},
+       "dry friction 0.5 m/s^2 opposing every particle's velocity (not the floor's)"},
   };
   for (const auto& name : o.only)
     if (std::none_of(cases.begin(), cases.end(), [&](const Case& c) { return c.name == name; }))
       throw InputError(fmt::format("--only: unknown case '{}'", name));
   fs::create_directories(o.out);
   std::string listing;
-  for (const std::string scene_name : {"slide", "strike"}) {
+  // Scenes in this order, so that a later scene's cases leave the earlier ones' draws alone.
+  for (const std::string scene_name : {"slide", "strike", "drift"}) {
     const Scene s = scene(scene_name);
     bool wanted = o.only.empty();
     for (const auto& c : cases)
@@ -293,16 +319,22 @@ int generate(const Options& o) {
       // misfit the model's discretisation could make (kUnidentifiedFactor).
       const bool detectable = c.effect.empty() || (snr >= 3.0 && snr >= 2 * model_error);
       const std::string effect = c.effect.empty() ? "null" : "\"" + c.effect + "\"";
+      const std::string region =
+          ph.has_region ? fmt::format("[[{}, {}, {}], [{}, {}, {}]]", json_number(ph.region.lo[0]),
+                                      json_number(ph.region.lo[1]), json_number(ph.region.lo[2]),
+                                      json_number(ph.region.hi[0]), json_number(ph.region.hi[1]),
+                                      json_number(ph.region.hi[2]))
+                        : std::string("null");
       write_atomic(
           dir / "truth.json",
           fmt::format("{{\n  \"effect\": {},\n  \"variant\": {},\n  \"parameters\": {{{}}},\n"
-                      "  \"scored_parameters\": [{}],\n  \"region\": null,\n  \"E_true\": {},\n"
+                      "  \"scored_parameters\": [{}],\n  \"region\": {},\n  \"E_true\": {},\n"
                       "  \"E_nominal\": {},\n  \"noise_sigma\": {},\n"
                       "  \"element\": \"gen4d MPM, cells h/2, dt/2\",\n  \"notes\": \"{}\",\n"
                       "  \"detectable\": {},\n  \"detect_snr\": {},\n  \"model_error_snr\": {},\n"
                       "  \"separability\": null\n}}\n",
                       effect, c.variant.empty() ? "null" : "\"" + c.variant + "\"", pj, scored,
-                      json_number(s.E), json_number(E_nom), json_number(kNoise), c.notes,
+                      region, json_number(s.E), json_number(E_nom), json_number(kNoise), c.notes,
                       detectable ? "true" : "false", c.effect.empty() ? "null" : json_number(snr),
                       json_number(model_error)));
       log::info(

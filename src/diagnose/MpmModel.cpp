@@ -2,9 +2,13 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/Dense>
+
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <unordered_map>
 
 #include "core/Error.hpp"
@@ -51,6 +55,60 @@ Config cells_config(const Config& cfg) {
   c.colliders.clear();
   c.tractions.clear();
   return c;
+}
+
+//! Each particle's share of the body's exposed area (m^2, indexed by particle id): the
+//! exposed faces of the voxel (of `cells`, the deck's voxels at the grid size) holding its
+//! reference position, split evenly among that voxel's particles. Particles outside every
+//! voxel carry none.
+std::vector<double> particle_areas(const VoxelModel& cells, const mpm::Particles& P) {
+  const double h = cells.h();
+  std::map<std::array<long, 3>, std::size_t> voxel;
+  for (std::size_t v = 0; v < cells.voxels(); ++v) voxel[cells.voxel_ijk(v)] = v;
+  std::vector<double> area(cells.voxels(), 0.0);
+  for (const auto& [ijk, v] : voxel) {
+    int faces = 0;
+    for (int a = 0; a < 3; ++a)
+      for (int s : {-1, 1}) {
+        std::array<long, 3> n = ijk;
+        n[a] += s;
+        faces += voxel.count(n) == 0;
+      }
+    area[v] = faces * h * h;
+  }
+  Vec3d origin{0, 0, 0};
+  if (cells.voxels() > 0)
+    for (int a = 0; a < 3; ++a)
+      origin[a] = cells.voxel_center(0)[a] - (cells.voxel_ijk(0)[a] + 0.5) * h;
+  std::int64_t nid = 0;
+  for (std::size_t i = 0; i < P.size(); ++i) nid = std::max(nid, P.id[i] + 1);
+  std::vector<long> home(static_cast<std::size_t>(nid), -1);
+  std::vector<int> count(cells.voxels(), 0);
+  for (std::size_t i = 0; i < P.size(); ++i) {
+    std::array<long, 3> ijk;
+    for (int a = 0; a < 3; ++a)
+      ijk[a] = static_cast<long>(std::floor((P.x[3 * i + a] - origin[a]) / h));
+    const auto it = voxel.find(ijk);
+    if (it == voxel.end()) continue;
+    home[static_cast<std::size_t>(P.id[i])] = static_cast<long>(it->second);
+    ++count[it->second];
+  }
+  std::vector<double> out(static_cast<std::size_t>(nid), 0.0);
+  for (std::size_t id = 0; id < out.size(); ++id)
+    if (home[id] >= 0) {
+      const auto v = static_cast<std::size_t>(home[id]);
+      out[id] = area[v] / count[v];
+    }
+  return out;
+}
+
+//! The rotation of F's polar decomposition F = R U.
+Eigen::Matrix3d rotation_of(const double* F) {
+  const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> M(F);
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d U = svd.matrixU(), V = svd.matrixV();
+  if ((U * V.transpose()).determinant() < 0) U.col(2) = -U.col(2);
+  return U * V.transpose();
 }
 
 }  // namespace
@@ -110,19 +168,18 @@ std::vector<double> MpmModel::load_events() const {
 }
 
 bool MpmModel::models(const std::string& effect, const std::string& variant) const {
-  if (effect == "gravity" || effect == "contact_friction") return true;
-  if (effect == "damping") return variant.empty() || variant == "mass";
   if (effect == "plasticity") return elastic_;
   if (effect == "material_law") return elastic_ && (variant.empty() || mpm_model_of_law(variant));
-  return false;
+  return effect != "clamp_compliance";
 }
 
 std::string MpmModel::unsupported_reason(const std::string& effect) const {
   if (effect == "plasticity" || effect == "material_law")
     return fmt::format("the deck's MPM material '{}' is not one of the elastic laws",
                        cfg_.material.model);
-  if (effect == "damping") return "the MPM model damps by mass (alpha) only";
-  return "a term of the voxel model only";
+  if (effect == "clamp_compliance")
+    return "an MPM deck has no [[fixed]] supports (its [[boundary]] conditions are kinematic)";
+  return "not a term of the MPM model";
 }
 
 Trace MpmModel::run(const Physics& ph, const std::vector<ChannelRequest>& req) const {
@@ -166,6 +223,45 @@ Trace MpmModel::run(const Physics& ph, const std::vector<ChannelRequest>& req) c
     opt.boundary_layers = cfg_.mpm.boundary_layers;
     opt.max_cells_per_substep = cfg_.mpm.max_cells_per_substep;
     opt.damping = ph.rayleigh_alpha;
+    // The effects that act on the particles' stresses (see the header), per particle id; the
+    // arrays are filled once the particles are seeded.
+    const bool region = ph.has_region && ph.region_factor != 1.0;
+    const bool visco = ph.prony_g > 0;
+    const bool kv = ph.rayleigh_beta != 0;
+    std::vector<double> factor;   // stress factor by id (region)
+    std::vector<double> history;  // Prony stress by id, 9 each, in the particle's rotated frame
+    const double mu0 = ph.youngs_modulus / (2 * (1 + ph.poisson_ratio));
+    const double lambda0 = ph.youngs_modulus * ph.poisson_ratio /
+                           ((1 + ph.poisson_ratio) * (1 - 2 * ph.poisson_ratio));
+    if (region || visco || kv)
+      opt.stress_hook = [&](const mpm::Particles& Q, double* tau, double dt) {
+        const double rv = visco ? dt / ph.prony_tau : 0.0;
+        for (std::size_t i = 0; i < Q.size(); ++i) {
+          const auto id = static_cast<std::size_t>(Q.id[i]);
+          double* s = tau + 9 * i;
+          const double f = region ? factor[id] : 1.0;
+          if (f != 1.0)
+            for (int k = 0; k < 9; ++k) s[k] *= f;
+          if (visco) {
+            // q' = (g P - q) / tau, backward Euler, in the rotated frame R^T tau R so that a
+            // rigid rotation carries the relaxing stress along.
+            const Eigen::Matrix3d R = rotation_of(&Q.F[9 * i]);
+            Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> S(s);
+            Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> q(&history[9 * id]);
+            q = (q + rv * ph.prony_g * (R.transpose() * S * R)) / (1.0 + rv);
+            S -= R * q * R.transpose();
+          }
+          if (kv) {
+            const double* C = &Q.C[9 * i];
+            const double tr = C[0] + C[4] + C[8];
+            for (int a = 0; a < 3; ++a)
+              for (int b = 0; b < 3; ++b)
+                s[3 * a + b] +=
+                    ph.rayleigh_beta * f *
+                    (mu0 * (C[3 * a + b] + C[3 * b + a]) + (a == b ? lambda0 * tr : 0.0));
+          }
+        }
+      };
     // The effect's ground first: where it lies on a plane of the deck, its friction acts on
     // the approaching velocity before the deck's plane sees it.
     std::vector<BoundaryConfig> bcs;
@@ -182,9 +278,43 @@ Trace MpmModel::run(const Physics& ph, const std::vector<ChannelRequest>& req) c
     mpm::Solver solver(MPI_COMM_SELF, spec, material, opt, bcs);
     solver.distribute(mpm::seed_particles(MPI_COMM_SELF, spec, *shape_, cfg_.mpm.particles_per_axis,
                                           *material, cfg_.mpm.velocity));
-    const mpm::Particles& P = solver.particles();
+    mpm::Particles& P = solver.particles();
     const std::size_t np = P.size();
     if (np == 0) throw InputError(cfg_.source + ": the geometry holds no MPM particle");
+    std::int64_t nid = 0;
+    for (std::size_t i = 0; i < np; ++i) nid = std::max(nid, P.id[i] + 1);
+    if (region) {
+      factor.assign(static_cast<std::size_t>(nid), 1.0);
+      for (std::size_t i = 0; i < np; ++i)
+        if (ph.region.contains({P.x[3 * i], P.x[3 * i + 1], P.x[3 * i + 2]}))
+          factor[static_cast<std::size_t>(P.id[i])] = ph.region_factor;
+    }
+    if (visco) history.assign(9 * static_cast<std::size_t>(nid), 0.0);
+    // Air drag and dry friction act on the particles' velocities before each substep's P2G:
+    // v / (1 + dt (linear + quadratic |v|) a / m) (implicit in the speed), then the dry
+    // friction's dt a_c taken off the speed, never past zero.
+    const bool drag = ph.drag_linear != 0 || ph.drag_quadratic != 0;
+    const bool dry = ph.coulomb_accel != 0;
+    std::vector<double> area;
+    if (drag) area = particle_areas(*cells_, P);
+    auto particle_forces = [&](double dt) {
+      for (std::size_t i = 0; i < P.size(); ++i) {
+        if (P.flag[i] != 0) continue;  // frozen or kinematic
+        double* v = &P.v[3 * i];
+        double speed = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        if (drag) {
+          const double a = area[static_cast<std::size_t>(P.id[i])];
+          const double k =
+              1.0 / (1.0 + dt * (ph.drag_linear + ph.drag_quadratic * speed) * a / P.mass[i]);
+          for (int d = 0; d < 3; ++d) v[d] *= k;
+          speed *= k;
+        }
+        if (dry && speed > 0) {
+          const double k = std::max(0.0, 1.0 - dt * ph.coulomb_accel / speed);
+          for (int d = 0; d < 3; ++d) v[d] *= k;
+        }
+      }
+    };
     // Each marker: the particles within the kernel of its reference point, and their weights.
     struct Member {
       std::int64_t id;
@@ -274,6 +404,7 @@ Trace MpmModel::run(const Physics& ph, const std::vector<ChannelRequest>& req) c
       for (std::size_t c = 0; c < req.size(); ++c)
         any = any || (next[c] < req[c].t.size() && req[c].t[next[c]] <= t1);
       if (any) positions(prev);  // at t, before the substep
+      if (drag || dry) particle_forces(dt);
       solver.substep(t, dt);
       ++tr.steps;
       if (P.size() != index.size()) reindex();

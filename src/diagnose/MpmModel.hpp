@@ -4,12 +4,17 @@
 //! moves with the B-spline-weighted mean displacement of the particles seeded around it (the
 //! grid's own interpolation kernel, 1.5 cells wide), so it follows the body as its Gaussians do.
 //
-// Effects it represents: the deck's E, nu and density; gravity; mass-proportional damping (on
-// the grid velocity); von Mises plasticity with linear hardening and the swap among the elastic
-// laws (fixed corotated, Neo-Hookean, StVK-Hencky) when the deck's material is one of those;
-// a ground plane with Coulomb friction, applied before the deck's own colliders. The others
-// (stiffness damping, viscoelasticity, a region of other stiffness, clamp springs, air drag,
-// dry friction) are terms of the voxel model only and are left out of the library here.
+// Effects it represents: the deck's E, nu and density; gravity; Rayleigh damping (mass: on the
+// grid velocity; stiffness: a viscous Kirchhoff stress beta (2 mu D + lambda tr(D) I) of the
+// particle's rate of deformation D, the symmetric part of its APIC velocity gradient); a
+// one-term Prony series (a fraction g of the stress relaxes with time tau, in the frame that
+// rotates with the particle); a box region whose particles' stress is scaled by a factor (for
+// the elastic laws, E times the factor at the same nu); air drag and dry friction on the
+// particles (a particle carries its voxel's share of the exposed area); von Mises plasticity
+// with linear hardening and the swap among the elastic laws (fixed corotated, Neo-Hookean,
+// StVK-Hencky) when the deck's material is one of those; a ground plane with Coulomb friction,
+// applied before the deck's own colliders. Clamp compliance is left out: an MPM deck has no
+// [[fixed]] supports, its [[boundary]] conditions are kinematic.
 #pragma once
 
 #include <memory>

@@ -215,6 +215,7 @@ void Solver::substep(double t, double dt) {
 void Solver::update_stress(double dt) {
   tau_.resize(9 * p_.size());
   if (p_.size() > 0) material_->update(p_.size(), p_.F.data(), p_.state.data(), tau_.data(), dt);
+  if (opt_.stress_hook && p_.size() > 0) opt_.stress_hook(p_, tau_.data(), dt);
 }
 
 void Solver::p2g(double dt) {

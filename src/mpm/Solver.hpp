@@ -18,6 +18,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -52,6 +53,12 @@ struct SolverOptions {
   //! Mass-proportional damping alpha (1/s): the grid velocity after gravity is divided by
   //! 1 + alpha dt (implicit, stable at any alpha); 0 leaves the update untouched.
   double damping = 0;
+  //! Called every substep after the material's update with this rank's particles and their
+  //! Kirchhoff stresses (9 per particle, row-major), which it may change before P2G; empty: no
+  //! call. Diagnose's MPM model adds its effects' stresses here (a region's stiffness factor,
+  //! a Prony term, stiffness-proportional damping). It must act per particle (by id) for the
+  //! results to stay independent of the rank count.
+  std::function<void(const Particles&, double* tau, double dt)> stress_hook;
 };
 
 //! A `surface_collider` boundary condition (the plane through `point` with `normal` towards the
