@@ -172,7 +172,8 @@ std::string json(const Diagnosis& d) {
        fmt::format("{{\"threshold_from\": {}, \"threshold_in_residual_variances\": {}, "
                    "\"residual_variance\": {}, \"chi2_time_step_error\": {}, "
                    "\"chi2_cells_error\": {}, \"fit_discretisation_check\": {}, "
-                   "\"scan_points\": {}, \"scan_runs\": {}}}",
+                   "\"scan_points\": {}, \"scan_runs\": {}, \"profile_step_runs\": {}, "
+                   "\"profile_steps_lowering\": {}}}",
                    jstr(ib.from), jnum(ib.threshold), jnum(ib.s2), jnum(ib.chi2_time_step),
                    jnum(ib.chi2_cells),
                    !(f.done || !f.skipped.empty())
@@ -184,7 +185,7 @@ std::string json(const Diagnosis& d) {
                                      f.done ? "true" : "false", jstr(f.skipped), jnum(f.voxel_size),
                                      jnum(f.youngs_modulus), jnum(f.rms), jnum(f.noise_sd),
                                      jnum(f.chi2), f.linearised ? "true" : "false", f.runs),
-                   ib.scan_points, ib.scan_runs));
+                   ib.scan_points, ib.scan_runs, ib.profile_runs, ib.profile_lowered));
   }
   {
     const MisfitBudget& b = d.budget;
@@ -234,6 +235,12 @@ std::string json(const Diagnosis& d) {
       lo += fmt::format("{}{{\"effect\": {}, \"why\": {}}}", i ? ", " : "",
                         jstr(d.effects_left_out[i].first), jstr(d.effects_left_out[i].second));
     kv("effects_left_out", lo + "]");
+  }
+  {
+    std::string dr = "[";
+    for (std::size_t i = 0; i < d.deeper_refits.size(); ++i)
+      dr += (i ? ", " : "") + jstr(d.deeper_refits[i]);
+    kv("deeper_refits", dr + "]");
   }
   std::string costs = "[";
   for (std::size_t i = 0; i < d.phases.size(); ++i)
@@ -477,6 +484,15 @@ std::string markdown(const Diagnosis& d) {
         " Here z = {:.2f} against {}, and the winner leaves no misfit beyond the "
         "noise.",
         d.vuong_z, d.runner_up);
+  if (!d.deeper_refits.empty()) {
+    std::string names;
+    for (const auto& n : d.deeper_refits) names += (names.empty() ? "" : ", ") + n;
+    m << fmt::format(
+        " The first refits left far more held-out misfit than the noise and the model's own "
+        "cells account for (over {:g} times), so the next screened effects were refitted as "
+        "well: {}.",
+        kDeeperRefitFactor, names);
+  }
   m << "\n\n";
   m << fmt::format(
       "Cost: {} forward runs ({} more asked for again and taken from the memo), {:.1f} s of "

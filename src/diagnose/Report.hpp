@@ -131,11 +131,18 @@ struct IntervalBasis {
   //! Each effect parameter's range scanned at this many values (the fit depends on its step).
   int scan_points = 0;
   long scan_runs = 0;
+  //! The probes' Gauss-Newton steps of the other parameters (runs), and how many of them
+  //! lowered the probe's chi-square (a curved profile).
+  long profile_runs = 0, profile_lowered = 0;
 };
 
 //! The discretisation check's error above this many noise sd rms: the model's cells are
 //! coarse for the motion, and its parameters are effective values of them.
 constexpr double kEffectiveAboveNoise = 3.0;
+//! When the best passing refit leaves more held-out chi-square than this many times what the
+//! noise and the model's own cells account for (the values' count plus the discretisation
+//! check's chi-square), the next screened effects are refitted too (run_diagnose, 5c).
+constexpr double kDeeperRefitFactor = 10.0;
 
 struct Diagnosis {
   std::string deck, recording;
@@ -165,6 +172,9 @@ struct Diagnosis {
   //! Runner-up's held-out chi2 minus the winner's, over the winner's held-out chi2 minus its
   //! count (the misfit it leaves beyond the noise); ambiguous below 1.
   double runner_up_gap = std::numeric_limits<double>::quiet_NaN();
+  //! Effects refitted beyond the screening's first few because the best refit left far more
+  //! misfit than the noise and the cells account for (empty: none).
+  std::vector<std::string> deeper_refits;
   double noise_position = 0, noise_acceleration = 0;
   //! The recording's own noise estimate of the markers (local cubics), before the calibrated
   //! residual's.
