@@ -2242,6 +2242,13 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
           "or above {:g}x and at its rate still there at the iteration limit)",
           r.iterations, kAbandonFactor, kCompeteFactor);
     }
+    if (!r.pred.ok) {
+      // Every run of the fit failed (an explicit MPM stiffness damping past its stable beta):
+      // its chi-square is the failure's penalty (100 noise sd a value), which can undercut a
+      // misfit of hundreds of noise sd; it is not a fit, and not kept.
+      c.passes = false;
+      c.why += "; every run of its fit failed: " + r.pred.failure;
+    }
     log::info("  refit {:<16} {:<12} chi2 {:.4g} -> {:.4g}; {}", c.effect, c.variant, chi2_0,
               c.chi2, c.why);
     phase_done(fmt::format("refit {}{}{}", c.effect, c.variant.empty() ? "" : " ", c.variant));
@@ -2303,6 +2310,19 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         refit_one(i);
       }
   }
+  // A passing fit that explains no more held-out chi-square than the discretisation check's
+  // error (D.refinement) is not kept.
+  auto keep_above_discretisation = [&](Candidate& c) {
+    if (!c.passes) return;
+    const double explained = score0 - score(c);
+    if (explained > D.refinement.chi2) return;
+    c.passes = false;
+    c.why += fmt::format(
+        "; explains {:.4g} of held-out chi2, not more than the discretisation error "
+        "({:.4g}, h/2 rerun)",
+        explained, D.refinement.chi2);
+    log::info("  {} {} not kept: {}", c.effect, c.variant, c.why);
+  };
   // 5b. The model's own spatial discretisation error (the spatial twin of the dt/2 rerun),
   // measured only when an effect would be kept. The calibrated baseline is rerun on voxels of
   // h/2 with its E refitted to the h run (E absorbs the part of the error that acts as a
@@ -2325,17 +2345,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       D.refinement = refinement_check(comm, cfg, obs, channel_X, calibrated, base.pred, scored,
                                       t_free, least_explained);
     if (D.refinement.done)
-      for (Candidate& c : variant_fits) {
-        if (!c.passes) continue;
-        const double explained = score0 - score(c);
-        if (explained > D.refinement.chi2) continue;
-        c.passes = false;
-        c.why += fmt::format(
-            "; explains {:.4g} of held-out chi2, not more than the discretisation error "
-            "({:.4g}, h/2 rerun)",
-            explained, D.refinement.chi2);
-        log::info("  {} {} not kept: {}", c.effect, c.variant, c.why);
-      }
+      for (Candidate& c : variant_fits) keep_above_discretisation(c);
     if (!reuse) check_phase_done();
   } else if (!D.refinement.done && D.refinement.skipped.empty()) {
     D.refinement.skipped = opt.refinement_check ? "not needed: no effect passed the other rules"
@@ -2381,18 +2391,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
                        [&](std::size_t a, std::size_t b) { return rank_of(a) < rank_of(b); });
       const std::size_t first_new = variant_fits.size();
       for (std::size_t i : next) refit_one(i);
-      for (std::size_t k = first_new; k < variant_fits.size(); ++k) {
-        Candidate& c = variant_fits[k];
-        if (!c.passes) continue;
-        const double explained = score0 - score(c);
-        if (explained > D.refinement.chi2) continue;
-        c.passes = false;
-        c.why += fmt::format(
-            "; explains {:.4g} of held-out chi2, not more than the discretisation error "
-            "({:.4g}, h/2 rerun)",
-            explained, D.refinement.chi2);
-        log::info("  {} {} not kept: {}", c.effect, c.variant, c.why);
-      }
+      for (std::size_t k = first_new; k < variant_fits.size(); ++k)
+        keep_above_discretisation(variant_fits[k]);
     }
   }
 
@@ -2426,6 +2426,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   auto rank_fits = [&] {
     std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
       if (fits[a].passes != fits[b].passes) return fits[a].passes;
+      if (fits[a].pred.ok != fits[b].pred.ok) return fits[a].pred.ok;  // failed fits last
       return score(fits[a]) < score(fits[b]);
     });
     best = !order.empty() && fits[order[0]].passes ? &fits[order[0]] : nullptr;
