@@ -2443,7 +2443,6 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   // kept effect is then checked the same way. Skipped where the baseline's check (a bound, on
   // the scored values) already puts the model's error on the fitted values below the noise's
   // threshold.
-  std::string fit_checked;  // the effect:variant that D.intervals.fit_refinement measured
   auto fit_check_pays = [&](const Candidate& c) {
     const double s2_fit = c.chi2 / std::max(1.0, N - static_cast<double>(c.z.size()));
     return !D.refinement.done || D.refinement.noise_sd * D.refinement.noise_sd * N > 3.84 * s2_fit;
@@ -2452,7 +2451,6 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     const Physics p_fit = effect_problem(find_effect(best->effect), best->variant).physics(best->z);
     D.intervals.fit_refinement = refinement_check(comm, cfg, obs, channel_X, p_fit, best->pred,
                                                   obs.train, t_free, 0.0, true);
-    fit_checked = best->effect + ":" + best->variant;
     const RefinementCheck& F = D.intervals.fit_refinement;
     log::info(
         "the {} fit's own discretisation error (h/2 rerun, E refitted to {:.5g} Pa): "
@@ -2474,7 +2472,6 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         gain, F.chi2);
     log::info("  {} {} not kept: {}", b.effect, b.variant, b.why);
     D.intervals.fit_refinement = RefinementCheck{};
-    fit_checked.clear();
     rank_fits();
   }
   // How far a contender's held-out fit is behind the winner's, in units of the misfit the
