@@ -351,6 +351,7 @@ VoxelModel::VoxelModel(const Config& cfg) : cfg_(cfg) {
   mass_.assign(nn, 0.0);
   fixed_.assign(nn, 0);
   area_.assign(nn, 0.0);
+  vox_area_.assign(vox_node_.size(), 0.0);
   clamp_area_.assign(nn, 0.0);
   for (const auto& v : vox_node_)
     for (int l = 0; l < 8; ++l) mass_[static_cast<std::size_t>(v[l])] += h_ * h_ * h_ / 8.0;
@@ -378,8 +379,10 @@ VoxelModel::VoxelModel(const Config& cfg) : cfg_(cfg) {
         for (int q = 0; q < 4; ++q) all_fixed = all_fixed && fixed_[corners[q]];
         if (all_fixed)
           clamp_faces_.push_back(corners);
-        else
+        else {
           for (int q = 0; q < 4; ++q) area_[static_cast<std::size_t>(corners[q])] += h_ * h_ / 4;
+          vox_area_[v] += h_ * h_;
+        }
       }
   }
   std::vector<char> on_face(nn, 0);
@@ -450,6 +453,15 @@ bool VoxelModel::inside(const Vec3d& X) const {
           return true;
       }
   return false;
+}
+
+long VoxelModel::voxel_containing(const Vec3d& X) const {
+  long c[3];
+  for (int a = 0; a < 3; ++a) {
+    c[a] = static_cast<long>(std::floor((X[a] - origin_[a]) / h_));
+    if (c[a] < 0 || c[a] >= cells_[a]) return -1;
+  }
+  return cell_voxel_[static_cast<std::size_t>((c[2] * cells_[1] + c[1]) * cells_[0] + c[0])];
 }
 
 Attachment VoxelModel::attach(const Vec3d& X) const {

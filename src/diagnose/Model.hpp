@@ -162,6 +162,10 @@ class VoxelModel final : public ForwardModel {
   Vec3d voxel_center(std::size_t v) const override;
   double volume() const override { return h_ * h_ * h_ * static_cast<double>(vox_node_.size()); }
   double exposed_area() const override;
+  //! Voxel v's exposed area (m^2): its faces on empty space, clamp faces excluded.
+  double voxel_exposed_area(std::size_t v) const { return vox_area_[v]; }
+  //! The voxel whose cell holds X, or -1 where that cell is empty or outside the grid.
+  long voxel_containing(const Vec3d& X) const;
   const std::array<long, 3>& voxel_ijk(std::size_t v) const override { return vox_ijk_[v]; }
   BoxRegion bounds() const override { return bounds_; }
   BoxRegion voxel_box(const std::vector<std::size_t>& voxels) const override;
@@ -196,9 +200,10 @@ class VoxelModel final : public ForwardModel {
   std::vector<std::array<int, 8>> vox_node_;
   std::vector<std::array<long, 3>> vox_ijk_;
   std::vector<Vec3d> X_;
-  std::vector<double> mass_;  //!< per node, kg per unit density
-  std::vector<char> fixed_;   //!< per node
-  std::vector<double> area_;  //!< exposed tributary area per node (not the clamp face)
+  std::vector<double> mass_;      //!< per node, kg per unit density
+  std::vector<char> fixed_;       //!< per node
+  std::vector<double> area_;      //!< exposed tributary area per node (not the clamp face)
+  std::vector<double> vox_area_;  //!< exposed area per voxel (not the clamp face)
   //! Lumped spring area of a fixed node on no clamp face (an interior anchor), else 0.
   std::vector<double> clamp_area_;
   //! Clamp faces (exposed voxel faces whose corners are all fixed): their corners, indexed

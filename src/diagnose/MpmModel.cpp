@@ -8,11 +8,11 @@
 #include <array>
 #include <cmath>
 #include <limits>
-#include <map>
 #include <unordered_map>
 
 #include "core/Error.hpp"
 #include "geometry/Shape.hpp"
+#include "materials/Svd3.hpp"
 #include "mpm/MpmSimulation.hpp"
 #include "mpm/Seeding.hpp"
 #include "mpm/Solver.hpp"
@@ -62,53 +62,34 @@ Config cells_config(const Config& cfg) {
 //! reference position, split evenly among that voxel's particles. Particles outside every
 //! voxel carry none.
 std::vector<double> particle_areas(const VoxelModel& cells, const mpm::Particles& P) {
-  const double h = cells.h();
-  std::map<std::array<long, 3>, std::size_t> voxel;
-  for (std::size_t v = 0; v < cells.voxels(); ++v) voxel[cells.voxel_ijk(v)] = v;
-  std::vector<double> area(cells.voxels(), 0.0);
-  for (const auto& [ijk, v] : voxel) {
-    int faces = 0;
-    for (int a = 0; a < 3; ++a)
-      for (int s : {-1, 1}) {
-        std::array<long, 3> n = ijk;
-        n[a] += s;
-        faces += voxel.count(n) == 0;
-      }
-    area[v] = faces * h * h;
-  }
-  Vec3d origin{0, 0, 0};
-  if (cells.voxels() > 0)
-    for (int a = 0; a < 3; ++a)
-      origin[a] = cells.voxel_center(0)[a] - (cells.voxel_ijk(0)[a] + 0.5) * h;
   std::int64_t nid = 0;
   for (std::size_t i = 0; i < P.size(); ++i) nid = std::max(nid, P.id[i] + 1);
   std::vector<long> home(static_cast<std::size_t>(nid), -1);
   std::vector<int> count(cells.voxels(), 0);
   for (std::size_t i = 0; i < P.size(); ++i) {
-    std::array<long, 3> ijk;
-    for (int a = 0; a < 3; ++a)
-      ijk[a] = static_cast<long>(std::floor((P.x[3 * i + a] - origin[a]) / h));
-    const auto it = voxel.find(ijk);
-    if (it == voxel.end()) continue;
-    home[static_cast<std::size_t>(P.id[i])] = static_cast<long>(it->second);
-    ++count[it->second];
+    const long v = cells.voxel_containing({P.x[3 * i], P.x[3 * i + 1], P.x[3 * i + 2]});
+    if (v < 0) continue;
+    home[static_cast<std::size_t>(P.id[i])] = v;
+    ++count[static_cast<std::size_t>(v)];
   }
   std::vector<double> out(static_cast<std::size_t>(nid), 0.0);
   for (std::size_t id = 0; id < out.size(); ++id)
     if (home[id] >= 0) {
       const auto v = static_cast<std::size_t>(home[id]);
-      out[id] = area[v] / count[v];
+      out[id] = cells.voxel_exposed_area(v) / count[v];
     }
   return out;
 }
 
-//! The rotation of F's polar decomposition F = R U.
+//! The rotation of F's polar decomposition F = R U (row-major F, as the particles store it):
+//! Higham's Newton iteration, the signed SVD's rotation where that declines, as the voxel
+//! model's corotated stress takes it.
 Eigen::Matrix3d rotation_of(const double* F) {
-  const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> M(F);
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d U = svd.matrixU(), V = svd.matrixV();
-  if ((U * V.transpose()).determinant() < 0) U.col(2) = -U.col(2);
-  return U * V.transpose();
+  materials::Mat3 M;
+  std::copy(F, F + 9, M.a);
+  materials::Mat3 R;
+  if (!materials::polar_rotation_newton(M, R)) R = materials::polar_rotation(M);
+  return Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(R.a);
 }
 
 }  // namespace
