@@ -173,7 +173,7 @@ std::string json(const Diagnosis& d) {
                    "\"residual_variance\": {}, \"chi2_time_step_error\": {}, "
                    "\"chi2_cells_error\": {}, \"fit_discretisation_check\": {}, "
                    "\"scan_points\": {}, \"scan_runs\": {}, \"profile_step_runs\": {}, "
-                   "\"profile_steps_lowering\": {}}}",
+                   "\"profile_steps_lowering\": {}, \"profile_probes_again\": {}}}",
                    jstr(ib.from), jnum(ib.threshold), jnum(ib.s2), jnum(ib.chi2_time_step),
                    jnum(ib.chi2_cells),
                    !(f.done || !f.skipped.empty())
@@ -185,7 +185,8 @@ std::string json(const Diagnosis& d) {
                                      f.done ? "true" : "false", jstr(f.skipped), jnum(f.voxel_size),
                                      jnum(f.youngs_modulus), jnum(f.rms), jnum(f.noise_sd),
                                      jnum(f.chi2), f.linearised ? "true" : "false", f.runs),
-                   ib.scan_points, ib.scan_runs, ib.profile_runs, ib.profile_lowered));
+                   ib.scan_points, ib.scan_runs, ib.profile_runs, ib.profile_lowered,
+                   ib.profile_refines));
   }
   {
     const MisfitBudget& b = d.budget;
@@ -242,6 +243,10 @@ std::string json(const Diagnosis& d) {
       dr += (i ? ", " : "") + jstr(d.deeper_refits[i]);
     kv("deeper_refits", dr + "]");
   }
+  kv("polish", fmt::format("{{\"rounds\": {}, \"runs\": {}, \"chi2_before\": {}, "
+                           "\"chi2_after\": {}, \"reason\": {}}}",
+                           d.polish.rounds, d.polish.runs, jnum(d.polish.chi2_before),
+                           jnum(d.polish.chi2_after), jstr(d.polish.reason)));
   std::string costs = "[";
   for (std::size_t i = 0; i < d.phases.size(); ++i)
     costs += fmt::format("{}{{\"phase\": {}, \"runs\": {}, \"wall_seconds\": {}}}", i ? ", " : "",
@@ -493,6 +498,12 @@ std::string markdown(const Diagnosis& d) {
         "well: {}.",
         kDeeperRefitFactor, names);
   }
+  if (d.polish.rounds > 0)
+    m << fmt::format(
+        " The selected effect's refit stopped at its iteration limit still descending, so it was "
+        "continued to its optimum ({} more fit(s), {} runs): chi-square {:.6g} -> {:.6g} on the "
+        "fitted values ({}).",
+        d.polish.rounds, d.polish.runs, d.polish.chi2_before, d.polish.chi2_after, d.polish.reason);
   m << "\n\n";
   m << fmt::format(
       "Cost: {} forward runs ({} more asked for again and taken from the memo), {:.1f} s of "

@@ -68,7 +68,8 @@ struct Candidate {
   std::string why;  //!< why it passed or failed the selection rules
   double youngs_modulus = 0, poisson_ratio = 0;
   Prediction pred;
-  Eigen::MatrixXd J;  //!< Jacobian of the training residual at z, when the fit left one
+  Eigen::MatrixXd J;       //!< Jacobian of the training residual at z, when the fit left one
+  std::string fit_reason;  //!< how its fit ended (TAO's converged reason)
 };
 
 struct Signature {
@@ -131,9 +132,11 @@ struct IntervalBasis {
   //! Each effect parameter's range scanned at this many values (the fit depends on its step).
   int scan_points = 0;
   long scan_runs = 0;
-  //! The probes' Gauss-Newton steps of the other parameters (runs), and how many of them
-  //! lowered the probe's chi-square (a curved profile).
+  //! The probes' Gauss-Newton steps of the other parameters (runs, kProfileSteps at most per
+  //! probe), and how many of them lowered the probe's chi-square (a curved profile).
   long profile_runs = 0, profile_lowered = 0;
+  //! Probes placed again nearer the threshold's crossing (each one profile point more).
+  long profile_refines = 0;
 };
 
 //! The discretisation check's error above this many noise sd rms: the model's cells are
@@ -175,6 +178,14 @@ struct Diagnosis {
   //! Effects refitted beyond the screening's first few because the best refit left far more
   //! misfit than the noise and the cells account for (empty: none).
   std::vector<std::string> deeper_refits;
+  //! The selected fit continued to its optimum where its refit stopped at the iteration
+  //! limit (kPolishRounds more fits of as many iterations at most).
+  struct Polish {
+    int rounds = 0;
+    long runs = 0;
+    double chi2_before = 0, chi2_after = 0;
+    std::string reason;  //!< how the last continuation ended
+  } polish;
   double noise_position = 0, noise_acceleration = 0;
   //! The recording's own noise estimate of the markers (local cubics), before the calibrated
   //! residual's.
