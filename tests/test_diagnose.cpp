@@ -731,6 +731,44 @@ TEST(DiagnoseFit, ConditionalStandardErrorIsTheCovarianceOrInfiniteWhenUnconstra
   EXPECT_TRUE(std::isinf(conditional_standard_error(C, 0, s2)));
 }
 
+TEST(DiagnoseFit, BoundedGaussNewtonStepHoldsAParameterAtItsBoundAndRefitsTheOthers) {
+  // Three parameters, the first two correlated (a ridge), the residual a linear model's.
+  std::mt19937 rng(11);
+  std::normal_distribution<double> nd;
+  Eigen::MatrixXd J(40, 3);
+  for (Eigen::Index i = 0; i < J.rows(); ++i)
+    for (Eigen::Index c = 0; c < J.cols(); ++c) J(i, c) = nd(rng);
+  J.col(1) += 0.8 * J.col(0);
+  const Eigen::Vector3d truth_step(-0.5, 0.3, 0.2);  // r = -J s*: the free optimum is s*
+  const Eigen::VectorXd r = -J * truth_step;
+  const std::vector<double> z = {0.2, 0.0, 0.0};
+  // Bounds that hold the free optimum: the least-squares step itself.
+  const Eigen::VectorXd free =
+      bounded_gauss_newton_step(J, r, z, {-1.0, -1.0, -1.0}, {1.0, 1.0, 1.0});
+  EXPECT_LT((free - truth_step).norm(), 1e-12);
+  // The first parameter bounded below at 0: held at 0 (a step of -0.2), the others refitted
+  // to the residual that leaves; clamping the free step would leave them at 0.3 and 0.2.
+  const Eigen::VectorXd held =
+      bounded_gauss_newton_step(J, r, z, {0.0, -1.0, -1.0}, {1.0, 1.0, 1.0});
+  EXPECT_DOUBLE_EQ(held[0], -0.2);
+  const Eigen::VectorXd rr = r + J.col(0) * held[0];
+  const Eigen::MatrixXd J12 = J.rightCols(2);
+  const Eigen::VectorXd s12 = J12.colPivHouseholderQr().solve(-rr);
+  EXPECT_LT((held.tail(2) - s12).norm(), 1e-12);
+  EXPECT_GT((held.tail(2) - truth_step.tail(2)).norm(), 0.05);  // the ridge moved them
+  // Its residual is no larger than that of the clamped free step.
+  Eigen::VectorXd clamped = truth_step;
+  clamped[0] = -0.2;
+  EXPECT_LT((J * held + r).norm(), (J * clamped + r).norm());
+  // Every parameter inside its bounds, also when refitting pushes a second one out.
+  const Eigen::VectorXd both =
+      bounded_gauss_newton_step(J, r, z, {0.0, -1.0, -1.0}, {1.0, 0.31, 1.0});
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_GE(z[static_cast<std::size_t>(k)] + both[k], (k == 0 ? 0.0 : -1.0) - 1e-15);
+    EXPECT_LE(z[static_cast<std::size_t>(k)] + both[k], (k == 1 ? 0.31 : 1.0) + 1e-15);
+  }
+}
+
 TEST(DiagnoseNoise, RecoversTheNoiseOfASmoothSignal) {
   std::mt19937 rng(3);
   std::normal_distribution<double> nd(0, 2e-4);

@@ -103,49 +103,8 @@ constexpr int kProfileSteps = 4;
 constexpr int kPolishRounds = 2;
 constexpr double kProfileGain = 0.02;
 //! Where a probe's profile chi-square is outside [1/2, 2] times the intervals' threshold, the
-//! profile is probed again at the end its quadratic gives, this many times at most.
-constexpr int kProfileRefines = 2;
-
-//! The Gauss-Newton step s minimising |J s + r| with z + s within [lo, hi], by active sets: a
-//! parameter the free step takes past a bound is held at that bound (its column's part moved
-//! into the residual) and the rest solved again. Along a ridge that ends at a bound (a drag
-//! term at zero) the unconstrained step asks the bounded parameter to go past it and sets the
-//! others for that move, so clamping it afterwards leaves them where they do not fit.
-Eigen::VectorXd bounded_gauss_newton_step(const Eigen::MatrixXd& J, const Eigen::VectorXd& r,
-                                          const std::vector<double>& z,
-                                          const std::vector<double>& lo,
-                                          const std::vector<double>& hi) {
-  const auto n = static_cast<Eigen::Index>(z.size());
-  Eigen::VectorXd s = Eigen::VectorXd::Zero(n);
-  std::vector<char> held(z.size(), 0);
-  for (Eigen::Index pass = 0; pass <= n; ++pass) {
-    std::vector<Eigen::Index> free;
-    Eigen::VectorXd rr = r;
-    for (Eigen::Index k = 0; k < n; ++k)
-      if (held[static_cast<std::size_t>(k)])
-        rr += J.col(k) * s[k];
-      else
-        free.push_back(k);
-    if (free.empty()) break;
-    Eigen::MatrixXd Jf(J.rows(), static_cast<Eigen::Index>(free.size()));
-    for (std::size_t f = 0; f < free.size(); ++f)
-      Jf.col(static_cast<Eigen::Index>(f)) = J.col(free[f]);
-    const Eigen::VectorXd sf = Jf.colPivHouseholderQr().solve(-rr);
-    bool clamped = false;
-    for (std::size_t f = 0; f < free.size(); ++f) {
-      const Eigen::Index k = free[f];
-      const auto ku = static_cast<std::size_t>(k);
-      s[k] = sf[static_cast<Eigen::Index>(f)];
-      if (z[ku] + s[k] < lo[ku] || z[ku] + s[k] > hi[ku]) {
-        s[k] = std::clamp(z[ku] + s[k], lo[ku], hi[ku]) - z[ku];
-        held[ku] = 1;
-        clamped = true;
-      }
-    }
-    if (!clamped) break;
-  }
-  return s;
-}
+//! profile is probed again nearer the crossing (see step 7), this many times at most.
+constexpr int kProfileRefines = 3;
 
 //! Upper 0.1 % point of chi-square with k degrees of freedom (k <= 10), else Wilson-Hilferty.
 double chi2_crit999(int k) {
@@ -3072,7 +3031,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     // profile is then probed again where `crossing` puts the end, while the points bracketing
     // it are more than a factor 2 from the threshold (the inner below T/2, the outer above 2 T)
     // or, with none above it, the farthest lies below T/2 and off the bound (halfway to a
-    // failed run): kProfileRefines times at most, every end's probes in one batch.
+    // failed run, or where the last probe fell inside again: bisection): kProfileRefines times
+    // at most, every end's probes in one batch.
     for (int round = 0; round < kProfileRefines; ++round) {
       std::vector<std::pair<std::size_t, double>> again;
       std::vector<std::size_t> again_of;
@@ -3094,13 +3054,16 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
                          pts.back().first < pr.hi[j];
         if (!wide_bracket) continue;
         bool nb = false;
-        // A failed run outside: halfway to it.
-        const double target = k < pts.size() && !(pts[k].second < 1e299)
+        // Halfway into the bracket where its outer point's run failed, or where the last probe
+        // again fell inside (the profile flat, then a cliff: the square root's interpolation
+        // keeps landing next to the inner point); else where `crossing` reads the end.
+        const bool last_inside = side_pts[idx].size() > 2 && side_pts[idx].back().second < thr;
+        const double target = k < pts.size() && (!(pts[k].second < 1e299) || last_inside)
                                   ? 0.5 * (pts[k - 1].first + pts[k].first)
                                   : std::clamp(crossing(idx, thr, reach, nb), pr.lo[j], pr.hi[j]);
         bool known = false;
         for (const auto& pt : pts)
-          known = known || std::abs(pt.first - target) <= 1e-3 * std::abs(pr.step[j]);
+          known = known || std::abs(pt.first - target) <= 1e-3 * std::abs(pts.back().first - z0);
         if (known) continue;
         again.emplace_back(at[idx].first, target);
         again_of.push_back(idx);

@@ -195,6 +195,42 @@ int main_component(const Observations& obs, int channel) {
   return best;
 }
 
+Eigen::VectorXd bounded_gauss_newton_step(const Eigen::MatrixXd& J, const Eigen::VectorXd& r,
+                                          const std::vector<double>& z,
+                                          const std::vector<double>& lo,
+                                          const std::vector<double>& hi) {
+  const auto n = static_cast<Eigen::Index>(z.size());
+  Eigen::VectorXd s = Eigen::VectorXd::Zero(n);
+  std::vector<char> held(z.size(), 0);
+  for (Eigen::Index pass = 0; pass <= n; ++pass) {
+    std::vector<Eigen::Index> free;
+    Eigen::VectorXd rr = r;
+    for (Eigen::Index k = 0; k < n; ++k)
+      if (held[static_cast<std::size_t>(k)])
+        rr += J.col(k) * s[k];
+      else
+        free.push_back(k);
+    if (free.empty()) break;
+    Eigen::MatrixXd Jf(J.rows(), static_cast<Eigen::Index>(free.size()));
+    for (std::size_t f = 0; f < free.size(); ++f)
+      Jf.col(static_cast<Eigen::Index>(f)) = J.col(free[f]);
+    const Eigen::VectorXd sf = Jf.colPivHouseholderQr().solve(-rr);
+    bool clamped = false;
+    for (std::size_t f = 0; f < free.size(); ++f) {
+      const Eigen::Index k = free[f];
+      const auto ku = static_cast<std::size_t>(k);
+      s[k] = sf[static_cast<Eigen::Index>(f)];
+      if (z[ku] + s[k] < lo[ku] || z[ku] + s[k] > hi[ku]) {
+        s[k] = std::clamp(z[ku] + s[k], lo[ku], hi[ku]) - z[ku];
+        held[ku] = 1;
+        clamped = true;
+      }
+    }
+    if (!clamped) break;
+  }
+  return s;
+}
+
 double conditional_standard_error(const Eigen::MatrixXd& J, Eigen::Index j, double s2) {
   const Eigen::VectorXd col = J.col(j);
   const double n0 = col.norm();
