@@ -706,13 +706,21 @@ TEST(DiagnoseModel, PlasticityPastYieldConvergesAndLeavesAPermanentSet) {
   EXPECT_LT(plastic.max_mises, elastic.max_mises);
 }
 
+namespace {
+//! A rows x cols matrix of standard normal entries (a Jacobian for the fit's linear algebra).
+Eigen::MatrixXd gaussian_matrix(Eigen::Index rows, Eigen::Index cols, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> nd;
+  Eigen::MatrixXd J(rows, cols);
+  for (Eigen::Index i = 0; i < rows; ++i)
+    for (Eigen::Index c = 0; c < cols; ++c) J(i, c) = nd(rng);
+  return J;
+}
+}  // namespace
+
 TEST(DiagnoseFit, ConditionalStandardErrorIsTheCovarianceOrInfiniteWhenUnconstrained) {
   // Full rank: equal to sqrt(s2 (J^T J)^-1_jj).
-  std::mt19937 rng(7);
-  std::normal_distribution<double> nd;
-  Eigen::MatrixXd J(50, 3);
-  for (Eigen::Index i = 0; i < J.rows(); ++i)
-    for (Eigen::Index c = 0; c < J.cols(); ++c) J(i, c) = nd(rng);
+  Eigen::MatrixXd J = gaussian_matrix(50, 3, 7);
   J.col(2) += 0.9 * J.col(0);  // correlated: the conditional error exceeds the marginal one
   const double s2 = 1.7;
   const Eigen::MatrixXd cov = s2 * (J.transpose() * J).inverse();
@@ -733,11 +741,7 @@ TEST(DiagnoseFit, ConditionalStandardErrorIsTheCovarianceOrInfiniteWhenUnconstra
 
 TEST(DiagnoseFit, BoundedGaussNewtonStepHoldsAParameterAtItsBoundAndRefitsTheOthers) {
   // Three parameters, the first two correlated (a ridge), the residual a linear model's.
-  std::mt19937 rng(11);
-  std::normal_distribution<double> nd;
-  Eigen::MatrixXd J(40, 3);
-  for (Eigen::Index i = 0; i < J.rows(); ++i)
-    for (Eigen::Index c = 0; c < J.cols(); ++c) J(i, c) = nd(rng);
+  Eigen::MatrixXd J = gaussian_matrix(40, 3, 11);
   J.col(1) += 0.8 * J.col(0);
   const Eigen::Vector3d truth_step(-0.5, 0.3, 0.2);  // r = -J s*: the free optimum is s*
   const Eigen::VectorXd r = -J * truth_step;
