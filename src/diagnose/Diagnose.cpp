@@ -1378,6 +1378,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     const auto specs = e.params(ctx, c.variant);
     c.params.clear();
     c.fit_reason = r.reason;
+    c.fit_at_limit = r.at_limit;
     c.fitted = true;
     c.z = r.z;
     c.chi2 = r.chi2;
@@ -2461,34 +2462,33 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
   // found points below the fit). The polished fit is scored by the same rules (set_fit), and
   // the ranking redone; each fit is continued once at most.
   std::vector<char> polished(fits.size(), 0);
-  auto at_limit = [](const std::string& reason) {
-    return reason.find("MAXITS") != std::string::npos || reason.find("MAXFCN") != std::string::npos;
-  };
   auto polish_best = [&] {
-    const int rounds_before = D.polish.rounds;
+    bool continued = false;
     while (best && !polished[order[0]]) {
       const std::size_t i = order[0];
       polished[i] = 1;
       Candidate& c = fits[i];
-      for (int round = 0; round < kPolishRounds && at_limit(c.fit_reason); ++round) {
+      FitContinuation& P = c.polish;
+      P.chi2_before = P.chi2_after = c.chi2;
+      for (int round = 0; round < kPolishRounds && c.fit_at_limit; ++round) {
         const LsqProblem pr = effect_problem(find_effect(c.effect), c.variant);
         const double before = c.chi2;
         log::info("  {} {}: its refit stopped at the iteration limit ({}); continued", c.effect,
                   c.variant, c.fit_reason);
         const LsqResult r = least_squares(ev, pr, c.z, opt.max_iterations, false);
-        if (D.polish.rounds == 0) D.polish.chi2_before = before;
-        ++D.polish.rounds;
-        D.polish.runs += r.runs;
-        D.polish.reason = r.reason;
+        ++P.rounds;
+        P.runs += r.runs;
+        P.reason = r.reason;
+        continued = true;
         if (!r.pred.ok || !(r.chi2 < before)) break;
         set_fit(c, r);
-        D.polish.chi2_after = c.chi2;
+        P.chi2_after = c.chi2;
         log::info("  {} {} continued: chi2 {:.6g} -> {:.6g}; {}", c.effect, c.variant, before,
                   c.chi2, c.why);
       }
       rank_fits();
     }
-    if (D.polish.rounds > rounds_before) phase_done("the selected fit continued");
+    if (continued) phase_done("the selected fit continued");
   };
   rank_fits();
   polish_best();
@@ -2604,6 +2604,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     D.effect = best->effect;
     D.variant = best->variant;
     D.effect_parameters = best->params;
+    D.polish = best->polish;
     D.rms_after = best->rms;
     D.heldout_rms_after = best->heldout_rms;
     D.fitted_pred = best->pred;
@@ -2855,17 +2856,20 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     // meets the threshold, sqrt(thr) standard errors out.
     const double reach = wide ? 1e300 : 3.0;
     const double probe = IB.from == "noise" || wide ? 2.0 : std::sqrt(thr);
-    // Per effect parameter: the other parameters and the QR of their Jacobian columns, for the
-    // linearised conditional optimum at each probe and the Gauss-Newton step from there.
+    // Per effect parameter: the other parameters, their Jacobian columns and those columns'
+    // QR, for the linearised conditional optimum at each probe and the Gauss-Newton steps
+    // from there.
     std::vector<std::vector<std::size_t>> others(specs.size());
+    std::vector<Eigen::MatrixXd> others_J(specs.size());
     std::vector<Eigen::ColPivHouseholderQR<Eigen::MatrixXd>> others_qr(specs.size());
     for (std::size_t q = 0; q < specs.size(); ++q) {
       for (std::size_t o = 0; o < np; ++o)
         if (o != 2 + q) others[q].push_back(o);
-      Eigen::MatrixXd Jo(J.rows(), static_cast<Eigen::Index>(others[q].size()));
+      others_J[q].resize(J.rows(), static_cast<Eigen::Index>(others[q].size()));
       for (std::size_t o = 0; o < others[q].size(); ++o)
-        Jo.col(static_cast<Eigen::Index>(o)) = J.col(static_cast<Eigen::Index>(others[q][o]));
-      others_qr[q].compute(Jo);
+        others_J[q].col(static_cast<Eigen::Index>(o)) =
+            J.col(static_cast<Eigen::Index>(others[q][o]));
+      others_qr[q].compute(others_J[q]);
     }
     // The profile at given values of the effect's parameters ((q, z_q) each): the others first
     // at the linearised conditional optimum, then re-optimised (below); each point's chi-square
@@ -2910,11 +2914,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         dchi[idx] = dchi_of(ep[idx]);
         const std::size_t q = at[idx].first;
         if (!ep[idx].ok || at[idx].second == best->z[2 + q] || np < 2) continue;
-        Walk w{idx, zends[idx], weighted_residual(obs, ep[idx], obs.train), {}};
-        w.Jo.resize(J.rows(), static_cast<Eigen::Index>(others[q].size()));
-        for (std::size_t o = 0; o < others[q].size(); ++o)
-          w.Jo.col(static_cast<Eigen::Index>(o)) = J.col(static_cast<Eigen::Index>(others[q][o]));
-        walks.push_back(std::move(w));
+        walks.push_back(
+            Walk{idx, zends[idx], weighted_residual(obs, ep[idx], obs.train), others_J[q]});
       }
       for (int step = 0; step < kProfileSteps && !walks.empty(); ++step) {
         std::vector<Physics> corr;
@@ -2986,12 +2987,28 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         at.emplace_back(q, std::clamp(best->z[j] + side * probe * se, pr.lo[j], pr.hi[j]));
     }
     // Each end's profile points along its side, (z_j, chi-square above the fit in s2), the fit
-    // itself first.
-    std::vector<std::vector<std::pair<double, double>>> side_pts(at.size());
+    // itself first, kept in order of distance from the fit (a point as far as one before it
+    // goes after it); and the chi-square of the last probe.
+    struct Side {
+      std::vector<std::pair<double, double>> pts;
+      double last = 0;
+    };
+    std::vector<Side> sides(at.size());
+    auto add_point = [&](std::size_t idx, double zv, double dchi) {
+      const double z0 = best->z[2 + at[idx].first];
+      auto& pts = sides[idx].pts;
+      const auto pos = std::upper_bound(
+          pts.begin(), pts.end(), std::abs(zv - z0),
+          [&](double dist, const auto& pt) { return dist < std::abs(pt.first - z0); });
+      pts.emplace(pos, zv, dchi);
+      sides[idx].last = dchi;
+    };
     {
       const std::vector<double> d = profile_at(at);
-      for (std::size_t idx = 0; idx < at.size(); ++idx)
-        side_pts[idx] = {{best->z[2 + at[idx].first], 0.0}, {at[idx].second, d[idx]}};
+      for (std::size_t idx = 0; idx < at.size(); ++idx) {
+        add_point(idx, best->z[2 + at[idx].first], 0.0);
+        add_point(idx, at[idx].second, d[idx]);
+      }
     }
     // Where the profile crosses a threshold T on an end's side: between the nearest point at or
     // above T and the point before it, linear in the square root of chi-square (exact for a
@@ -3001,11 +3018,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
     // where the point sits on it).
     auto crossing = [&](std::size_t idx, double T, double max_reach, bool& at_bound) {
       const std::size_t j = 2 + at[idx].first;
-      auto pts = side_pts[idx];
+      const auto& pts = sides[idx].pts;
       const double z0 = best->z[j];
-      std::stable_sort(pts.begin(), pts.end(), [&](const auto& x, const auto& y) {
-        return std::abs(x.first - z0) < std::abs(y.first - z0);
-      });
       at_bound = false;
       auto root = [](double d) { return std::sqrt(std::max(d, 0.0)); };
       for (std::size_t k = 1; k < pts.size(); ++k)
@@ -3038,11 +3052,8 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
       std::vector<std::size_t> again_of;
       for (std::size_t idx = 0; idx < at.size(); ++idx) {
         const std::size_t j = 2 + at[idx].first;
-        auto pts = side_pts[idx];
+        const auto& pts = sides[idx].pts;
         const double z0 = best->z[j];
-        std::stable_sort(pts.begin(), pts.end(), [&](const auto& x, const auto& y) {
-          return std::abs(x.first - z0) < std::abs(y.first - z0);
-        });
         if (pts.back().first == z0) continue;
         bool wide_bracket = false;
         std::size_t k = 1;
@@ -3057,7 +3068,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
         // Halfway into the bracket where its outer point's run failed, or where the last probe
         // again fell inside (the profile flat, then a cliff: the square root's interpolation
         // keeps landing next to the inner point); else where `crossing` reads the end.
-        const bool last_inside = side_pts[idx].size() > 2 && side_pts[idx].back().second < thr;
+        const bool last_inside = pts.size() > 2 && sides[idx].last < thr;
         const double target = k < pts.size() && (!(pts[k].second < 1e299) || last_inside)
                                   ? 0.5 * (pts[k - 1].first + pts[k].first)
                                   : std::clamp(crossing(idx, thr, reach, nb), pr.lo[j], pr.hi[j]);
@@ -3077,7 +3088,7 @@ int run_diagnose(MPI_Comm comm, const Config& cfg, const DiagnoseOptions& opt) {
             "  profile: {} probed again at {:.5g}: chi2 {:.3g} s2 above the fit "
             "(threshold {:.3g})",
             specs[q].name, from_z(specs[q], again[k].second), d2[k], thr);
-        side_pts[idx].emplace_back(again[k].second, d2[k]);
+        add_point(idx, again[k].second, d2[k]);
       }
     }
     for (std::size_t q = 0; q < specs.size(); ++q) {

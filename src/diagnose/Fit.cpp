@@ -584,6 +584,8 @@ LsqResult least_squares(Evaluator& ev, const LsqProblem& prob, std::vector<doubl
                : !c.z_converged.empty() ? "CONVERGED_STEPTOL (line search below the step tolerance)"
                                         : TaoConvergedReasons[reason];
   res.abandoned = c.abandoned;
+  res.at_limit = !c.abandoned && c.z_converged.empty() &&
+                 (reason == TAO_DIVERGED_MAXITS || reason == TAO_DIVERGED_MAXFCN);
   res.skipped = c.skipped;
   res.iterations = static_cast<int>(its);
   log::info("    fit: TAO {} after {} iterations", res.reason, its);

@@ -158,7 +158,10 @@ struct LsqResult {
   double chi2 = 0;
   int iterations = 0;
   long runs = 0;
-  std::string reason;      //!< TAO's converged reason
+  std::string reason;  //!< TAO's converged reason
+  //! Stopped by its iteration or run limit (TAO's MAXITS or MAXFCN; not abandoned, not at the
+  //! step tolerance): the objective may still be descending, and a continuation from z pays.
+  bool at_limit = false;
   bool abandoned = false;  //!< stopped by LsqProblem::abandon_chi2 or compete_chi2
   long skipped = 0;        //!< line-search points not run: below the step tolerance
 };

@@ -502,8 +502,9 @@ std::string markdown(const Diagnosis& d) {
     m << fmt::format(
         " The selected effect's refit stopped at its iteration limit still descending, so it was "
         "continued to its optimum ({} more fit(s), {} runs): chi-square {:.6g} -> {:.6g} on the "
-        "fitted values ({}).",
-        d.polish.rounds, d.polish.runs, d.polish.chi2_before, d.polish.chi2_after, d.polish.reason);
+        "fitted values{} ({}).",
+        d.polish.rounds, d.polish.runs, d.polish.chi2_before, d.polish.chi2_after,
+        d.polish.chi2_after < d.polish.chi2_before ? "" : ", not lowered", d.polish.reason);
   m << "\n\n";
   m << fmt::format(
       "Cost: {} forward runs ({} more asked for again and taken from the memo), {:.1f} s of "

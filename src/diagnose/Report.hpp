@@ -48,6 +48,16 @@ struct TimeStepCheck {
   long runs = 0;
 };
 
+//! A fit continued to its optimum where its refit stopped at the iteration limit
+//! (kPolishRounds more fits of as many iterations at most).
+struct FitContinuation {
+  int rounds = 0;
+  long runs = 0;
+  double chi2_before = 0;  //!< the refit's, before the first continuation
+  double chi2_after = 0;   //!< after the last (the refit's where none lowered it)
+  std::string reason;      //!< how the last continuation ended
+};
+
 //! One refitted candidate.
 struct Candidate {
   std::string effect, variant;
@@ -68,8 +78,10 @@ struct Candidate {
   std::string why;  //!< why it passed or failed the selection rules
   double youngs_modulus = 0, poisson_ratio = 0;
   Prediction pred;
-  Eigen::MatrixXd J;       //!< Jacobian of the training residual at z, when the fit left one
-  std::string fit_reason;  //!< how its fit ended (TAO's converged reason)
+  Eigen::MatrixXd J;          //!< Jacobian of the training residual at z, when the fit left one
+  std::string fit_reason;     //!< how its fit ended (TAO's converged reason)
+  bool fit_at_limit = false;  //!< its fit stopped at the iteration or run limit, still descending
+  FitContinuation polish;     //!< its fit's continuation (selected fits only)
 };
 
 struct Signature {
@@ -178,14 +190,8 @@ struct Diagnosis {
   //! Effects refitted beyond the screening's first few because the best refit left far more
   //! misfit than the noise and the cells account for (empty: none).
   std::vector<std::string> deeper_refits;
-  //! The selected fit continued to its optimum where its refit stopped at the iteration
-  //! limit (kPolishRounds more fits of as many iterations at most).
-  struct Polish {
-    int rounds = 0;
-    long runs = 0;
-    double chi2_before = 0, chi2_after = 0;
-    std::string reason;  //!< how the last continuation ended
-  } polish;
+  //! The selected effect's fit continued to its optimum (Candidate::polish of the selected).
+  FitContinuation polish;
   double noise_position = 0, noise_acceleration = 0;
   //! The recording's own noise estimate of the markers (local cubics), before the calibrated
   //! residual's.
