@@ -199,34 +199,85 @@ Eigen::VectorXd bounded_gauss_newton_step(const Eigen::MatrixXd& J, const Eigen:
                                           const std::vector<double>& z,
                                           const std::vector<double>& lo,
                                           const std::vector<double>& hi) {
+  // Bounded-variable least squares (Stark and Parker's BVLS, Lawson and Hanson's active-set
+  // scheme with two-sided bounds) in the step s, l = lo - z <= s <= u = hi - z. The iterate
+  // stays feasible and |J s + r| never rises: the free parameters' least-squares solution is
+  // taken where it lies within the bounds, else the iterate moves towards it as far as the
+  // first bound it meets, which then holds that parameter. With the free set solved, a held
+  // parameter whose gradient points into the box (its Lagrange multiplier of the wrong sign) is
+  // released, the one with the largest first, until none is (the Karush-Kuhn-Tucker conditions
+  // of this convex problem: the step is its minimum).
   const auto n = static_cast<Eigen::Index>(z.size());
-  Eigen::VectorXd s = Eigen::VectorXd::Zero(n);
-  std::vector<char> held(z.size(), 0);
-  for (Eigen::Index pass = 0; pass <= n; ++pass) {
-    std::vector<Eigen::Index> free;
-    Eigen::VectorXd rr = r;
-    for (Eigen::Index k = 0; k < n; ++k)
-      if (held[static_cast<std::size_t>(k)])
-        rr += J.col(k) * s[k];
-      else
-        free.push_back(k);
-    if (free.empty()) break;
-    Eigen::MatrixXd Jf(J.rows(), static_cast<Eigen::Index>(free.size()));
-    for (std::size_t f = 0; f < free.size(); ++f)
-      Jf.col(static_cast<Eigen::Index>(f)) = J.col(free[f]);
-    const Eigen::VectorXd sf = Jf.colPivHouseholderQr().solve(-rr);
-    bool clamped = false;
-    for (std::size_t f = 0; f < free.size(); ++f) {
-      const Eigen::Index k = free[f];
-      const auto ku = static_cast<std::size_t>(k);
-      s[k] = sf[static_cast<Eigen::Index>(f)];
-      if (z[ku] + s[k] < lo[ku] || z[ku] + s[k] > hi[ku]) {
-        s[k] = std::clamp(z[ku] + s[k], lo[ku], hi[ku]) - z[ku];
-        held[ku] = 1;
-        clamped = true;
+  Eigen::VectorXd l(n), u(n), s(n);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const auto ku = static_cast<std::size_t>(k);
+    l[k] = std::min(lo[ku] - z[ku], 0.0);
+    u[k] = std::max(hi[ku] - z[ku], 0.0);
+    s[k] = 0.0;
+  }
+  // -1 held at l, +1 held at u, 0 free. A parameter that starts on a bound starts free: the
+  // first solve and the step towards it hold it again where it would leave the box.
+  std::vector<int> state(z.size(), 0);
+  const double jn = std::max(J.norm(), 1e-300);
+  auto tol_g = [&] { return 1e-11 * jn * ((J * s + r).norm() + 1e-300); };
+  const int max_iter = 10 * static_cast<int>(n) + 10;
+  int released_last = -1;
+  for (int it = 0; it < max_iter; ++it) {
+    // The free parameters' least-squares step from the held ones, towards which the iterate
+    // moves until it lies within the bounds.
+    for (int inner = 0; inner <= static_cast<int>(n); ++inner) {
+      std::vector<Eigen::Index> free;
+      Eigen::VectorXd rr = r;
+      for (Eigen::Index k = 0; k < n; ++k)
+        if (state[static_cast<std::size_t>(k)] != 0)
+          rr += J.col(k) * s[k];
+        else
+          free.push_back(k);
+      if (free.empty()) break;
+      Eigen::MatrixXd Jf(J.rows(), static_cast<Eigen::Index>(free.size()));
+      for (std::size_t f = 0; f < free.size(); ++f)
+        Jf.col(static_cast<Eigen::Index>(f)) = J.col(free[f]);
+      const Eigen::VectorXd y = Jf.colPivHouseholderQr().solve(-rr);
+      double alpha = 1.0;
+      for (std::size_t f = 0; f < free.size(); ++f) {
+        const Eigen::Index k = free[f];
+        const double yk = y[static_cast<Eigen::Index>(f)], d = yk - s[k];
+        if (yk < l[k] && d < 0) alpha = std::min(alpha, (l[k] - s[k]) / d);
+        if (yk > u[k] && d > 0) alpha = std::min(alpha, (u[k] - s[k]) / d);
       }
+      alpha = std::clamp(alpha, 0.0, 1.0);
+      bool bound_hit = false;
+      for (std::size_t f = 0; f < free.size(); ++f) {
+        const Eigen::Index k = free[f];
+        const double yk = y[static_cast<Eigen::Index>(f)];
+        s[k] = alpha == 1.0 ? yk : s[k] + alpha * (yk - s[k]);
+        // A parameter the move brought to a bound it was heading past is held there (the one
+        // just released is not held again at once on rounding: it would cycle).
+        const bool past_l = yk < l[k] && s[k] <= l[k] + 1e-14 * (1 + std::abs(l[k]));
+        const bool past_u = yk > u[k] && s[k] >= u[k] - 1e-14 * (1 + std::abs(u[k]));
+        if ((past_l || past_u) && !(k == released_last && alpha == 0.0)) {
+          s[k] = past_l ? l[k] : u[k];
+          state[static_cast<std::size_t>(k)] = past_l ? -1 : 1;
+          bound_hit = true;
+        }
+        s[k] = std::clamp(s[k], l[k], u[k]);
+      }
+      if (!bound_hit) break;
     }
-    if (!clamped) break;
+    // The multipliers of the held parameters: the gradient J^T (J s + r) must point out of
+    // the box at each (non-negative at a lower bound, non-positive at an upper one).
+    const Eigen::VectorXd g = J.transpose() * (J * s + r);
+    const double tg = tol_g();
+    Eigen::Index worst = -1;
+    double worst_g = tg;
+    for (Eigen::Index k = 0; k < n; ++k) {
+      const int st = state[static_cast<std::size_t>(k)];
+      const double wrong = st < 0 ? -g[k] : st > 0 ? g[k] : 0.0;
+      if (wrong > worst_g) worst_g = wrong, worst = k;
+    }
+    if (worst < 0) break;
+    state[static_cast<std::size_t>(worst)] = 0;
+    released_last = static_cast<int>(worst);
   }
   return s;
 }

@@ -117,11 +117,13 @@ double rms(const Observations& obs, const Prediction& p, const std::vector<char>
 //! pseudo-inverse of J^T J would give a variance of zero there).
 double conditional_standard_error(const Eigen::MatrixXd& J, Eigen::Index j, double s2);
 
-//! The Gauss-Newton step s minimising |J s + r| with z + s within [lo, hi], by active sets: a
-//! parameter the free step takes past a bound is held at that bound (its column's part moved
-//! into the residual) and the rest solved again. Along a ridge that ends at a bound (a drag
-//! term at zero) the unconstrained step asks the bounded parameter to go past it and sets the
-//! others for that move, so clamping it afterwards leaves them where they do not fit.
+//! The Gauss-Newton step s minimising |J s + r| with z + s within [lo, hi] (bounded-variable
+//! least squares by active sets: a parameter the free step takes past a bound is held at that
+//! bound and the rest solved again; a held one whose gradient points back into the box is
+//! released). Along a ridge that ends at a bound (a drag term at zero) the unconstrained step
+//! asks the bounded parameter to go past it and sets the others for that move, so clamping
+//! it afterwards leaves them where they do not fit. Where z lies outside its bounds, the
+//! step does not take it further out.
 Eigen::VectorXd bounded_gauss_newton_step(const Eigen::MatrixXd& J, const Eigen::VectorXd& r,
                                           const std::vector<double>& z,
                                           const std::vector<double>& lo,
