@@ -1601,6 +1601,42 @@ TEST(DiagnoseEndToEnd, FindsHiddenMassDampingFromMarkersAndAccelerometers) {
   EXPECT_NE(phases.find("\"refit damping mass\""), std::string::npos) << phases;
 }
 
+// Ranks share the forward runs and every rank takes the same decisions from the same numbers,
+// so a diagnosis is the same at any rank count to the last printed digit. The damped
+// recording is diagnosed at 1 rank (diagnose_np1) and again at 2 (diagnose_np2, which ctest
+// runs after it): the two report.json agree in every line but the recording's folder and the
+// cost (runs asked for ahead, seconds, ranks). The long end-to-end cases run at 2 ranks only.
+TEST(DiagnoseAcrossRanks, ReportIsTheSameAtOneAndTwoRanks) {
+  int rank = 0, size = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  const DiagnoseOptions opt =
+      diagnose_damped("diagnose_ranks", {"damping", "gravity", "air_drag"}, 2);
+  if (rank != 0) return;
+  // report.json's lines without its cost and with the folder's rank count taken out.
+  auto comparable = [](const std::string& path) {
+    std::ifstream in(path);
+    std::vector<std::string> out;
+    for (std::string line; std::getline(in, line);)
+      if (line.rfind("  \"cost\":", 0) != 0 && line.rfind("  \"recording\":", 0) != 0)
+        out.push_back(std::regex_replace(line, std::regex("diagnose_ranks_np[0-9]+"), "dir"));
+    return out;
+  };
+  const std::vector<std::string> here = comparable(opt.out_dir + "/report.json");
+  ASSERT_GT(here.size(), 20u);
+  EXPECT_EQ(here[2], "  \"effect\": \"damping\",");
+  if (size == 1) return;
+  const std::string one_rank = "diagnose_ranks_np1/out/report.json";
+  ASSERT_TRUE(std::filesystem::exists(one_rank))
+      << one_rank << " is missing: run the suite at 1 rank first (ctest runs diagnose_np1 "
+      << "before diagnose_np2)";
+  const std::vector<std::string> there = comparable(one_rank);
+  ASSERT_EQ(here.size(), there.size());
+  for (std::size_t k = 0; k < here.size(); ++k)
+    ASSERT_EQ(here[k], there[k]) << "report.json line " << k + 1 << " differs at " << size
+                                 << " ranks from 1 rank's";
+}
+
 TEST(DiagnoseEndToEnd, SaysMissingPhysicsNotIdentifiedWhenTheLibraryLacksIt) {
   // The damped recording with a library that cannot damp (only the other hyperelastic laws,
   // alike at these strains): the misfit is far beyond the noise and the voxels' own error, so
