@@ -1093,6 +1093,43 @@ TEST(DiagnoseFit, AFailedRunSaysWhereTheBodyGaveWayAndTheEvaluatorCountsIt) {
   EXPECT_EQ(ev.failed(), 1);
 }
 
+// A trial point whose run fails is outside the model's domain, not a descent. The calibration
+// of E where the beam gives way for E in a band just above the truth (the problem's physics
+// crushes it there: a thousand times the load), from a start that misfits by far more than
+// 100 noise sd a value: the first Gauss-Newton step lands in the band, where the failure's
+// stand-in residual (100 sd a value) is far below the start's. The fit must back off from the
+// failed points (and take its differences from the other side where one fails) and reach the
+// truth below the band; taking the failed point, it stopped there with a zero Jacobian.
+TEST(DiagnoseFit, AFailedTrialRunIsNotTakenForADescent) {
+  const VoxelModel m(deck());
+  Physics truth = m.nominal();
+  truth.youngs_modulus *= 1.1;
+  Observations obs = tip_observations(m, truth, 0.3);
+  ASSERT_FALSE(obs.y.empty());
+  for (double& s : obs.sigma) s = 1e-8;
+  const double band_lo = 1.0005 * truth.youngs_modulus, band_hi = 1.01 * truth.youngs_modulus;
+  LsqProblem pb;
+  pb.lo = {std::log(1e5)};
+  pb.hi = {std::log(1e6)};
+  pb.step = {1e-3};
+  pb.mask = &obs.train;
+  pb.physics = [&m, band_lo, band_hi](const std::vector<double>& z) {
+    Physics p = m.nominal();
+    p.youngs_modulus = std::exp(z[0]);
+    if (p.youngs_modulus > band_lo && p.youngs_modulus < band_hi) p.load_scale = 1e3;
+    return p;
+  };
+  Evaluator ev(MPI_COMM_WORLD, m, obs);
+  const std::vector<double> z0 = {std::log(1.3 * m.nominal().youngs_modulus)};
+  const LsqResult start = least_squares(ev, pb, z0, 0);
+  ASSERT_GT(start.chi2, 1e4 * static_cast<double>(obs.size()));  // over 100 sd a value
+  const LsqResult r = least_squares(ev, pb, z0, 20);
+  EXPECT_GT(ev.failed(), 0);  // the fit did step into the band
+  ASSERT_TRUE(r.pred.ok) << r.reason;
+  EXPECT_NEAR(std::exp(r.z[0]) / truth.youngs_modulus, 1.0, 1e-4) << r.reason;
+  EXPECT_LT(r.chi2, 1e-6 * start.chi2) << r.reason;
+}
+
 TEST(DiagnoseFit, ColumnsRunAheadLeaveAFitUnchangedBitForBit) {
   // Three parameters (log E, nu, mass damping): on 2 ranks a lone trial point's idle rank runs
   // a Jacobian column ahead. The fit over all ranks must equal, bit for bit and in its own run

@@ -420,10 +420,37 @@ void jacobian_at(TaoContext& c, const std::vector<double>& z) {
   if (need_base)
     note(c, z, preds[0], weighted_residual(c.ev->observations(), preds[0], *c.prob->mask));
   c.J.resize(c.r_cached.size(), static_cast<Eigen::Index>(n));
+  // A column whose forward point's run failed (the body gave way past it) is taken from the
+  // other side of z where z's own run did not: the failure's stand-in residual is no
+  // derivative. Where that run fails too, or lies past the other bound, the column is zero:
+  // the data say nothing about the parameter here that a step could use.
+  std::vector<std::size_t> back;
+  std::vector<Physics> back_batch;
+  for (std::size_t j = 0; j < n; ++j)
+    if (!preds[first + j].ok && c.pred_cached.ok) {
+      std::vector<double> zb = z;
+      zb[j] -= h[j];
+      if (zb[j] < c.prob->lo[j] || zb[j] > c.prob->hi[j]) continue;
+      back.push_back(j);
+      back_batch.push_back(c.prob->physics(zb));
+    }
+  const auto back_preds = c.ev->run(back_batch);
+  c.runs += static_cast<long>(back_batch.size());
   for (std::size_t j = 0; j < n; ++j) {
-    const Eigen::VectorXd rj =
-        weighted_residual(c.ev->observations(), preds[first + j], *c.prob->mask);
-    c.J.col(static_cast<Eigen::Index>(j)) = (rj - c.r_cached) / h[j];
+    const auto col = static_cast<Eigen::Index>(j);
+    const auto b = std::find(back.begin(), back.end(), j);
+    const Prediction& pj = b == back.end() ? preds[first + j] : back_preds[b - back.begin()];
+    if (!pj.ok && c.pred_cached.ok) {
+      c.J.col(col).setZero();
+      log::info("    fit: parameter {}'s difference runs failed both sides of z: {}", j,
+                pj.failure);
+      continue;
+    }
+    const double hj = b == back.end() ? h[j] : -h[j];
+    if (b != back.end())
+      log::info("    fit: parameter {}'s forward difference failed; backward instead", j);
+    const Eigen::VectorXd rj = weighted_residual(c.ev->observations(), pj, *c.prob->mask);
+    c.J.col(col) = (rj - c.r_cached) / hj;
   }
   c.z_jac = z;
   c.chi2_jac = c.r_cached.squaredNorm();
@@ -532,7 +559,11 @@ PetscErrorCode tao_objective(Tao, Vec X, PetscReal* f, void* ctx) {
     return 0;
   }
   evaluate_at(c, z);
-  *f = c.scale * 0.5 * c.r_cached.squaredNorm();
+  // A trial point whose run failed lies outside the model's domain: an infinite objective,
+  // from which TAO's Armijo search backs off (halving the step). The failure's stand-in
+  // residual (weighted_residual: 100 noise sd a value) would undercut a misfit of more than
+  // 100 sd and be taken as a descent.
+  *f = c.pred_cached.ok ? c.scale * 0.5 * c.r_cached.squaredNorm() : PETSC_INFINITY;
   return 0;
 }
 
