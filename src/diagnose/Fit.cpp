@@ -424,30 +424,32 @@ void jacobian_at(TaoContext& c, const std::vector<double>& z) {
   // other side of z where z's own run did not: the failure's stand-in residual is no
   // derivative. Where that run fails too, or lies past the other bound, the column is zero:
   // the data say nothing about the parameter here that a step could use.
-  std::vector<std::size_t> back;
+  std::vector<std::ptrdiff_t> back(n, -1);  // column j's backward run in back_batch, or -1
   std::vector<Physics> back_batch;
   for (std::size_t j = 0; j < n; ++j)
     if (!preds[first + j].ok && c.pred_cached.ok) {
       std::vector<double> zb = z;
       zb[j] -= h[j];
       if (zb[j] < c.prob->lo[j] || zb[j] > c.prob->hi[j]) continue;
-      back.push_back(j);
+      back[j] = static_cast<std::ptrdiff_t>(back_batch.size());
       back_batch.push_back(c.prob->physics(zb));
     }
-  const auto back_preds = c.ev->run(back_batch);
+  // Only where a column needs it: a batch costs the ranks a reduction even when empty.
+  const auto back_preds = back_batch.empty() ? std::vector<Prediction>() : c.ev->run(back_batch);
   c.runs += static_cast<long>(back_batch.size());
   for (std::size_t j = 0; j < n; ++j) {
     const auto col = static_cast<Eigen::Index>(j);
-    const auto b = std::find(back.begin(), back.end(), j);
-    const Prediction& pj = b == back.end() ? preds[first + j] : back_preds[b - back.begin()];
+    const bool backward = back[j] >= 0;
+    const Prediction& pj =
+        backward ? back_preds[static_cast<std::size_t>(back[j])] : preds[first + j];
     if (!pj.ok && c.pred_cached.ok) {
       c.J.col(col).setZero();
       log::info("    fit: parameter {}'s difference runs failed both sides of z: {}", j,
                 pj.failure);
       continue;
     }
-    const double hj = b == back.end() ? h[j] : -h[j];
-    if (b != back.end())
+    const double hj = backward ? -h[j] : h[j];
+    if (backward)
       log::info("    fit: parameter {}'s forward difference failed; backward instead", j);
     const Eigen::VectorXd rj = weighted_residual(c.ev->observations(), pj, *c.prob->mask);
     c.J.col(col) = (rj - c.r_cached) / hj;
