@@ -27,6 +27,7 @@ pkgs=(
   clang-format
   python3-matplotlib python3-h5py python3-numpy
   calculix-ccx
+  ffmpeg
 )
 if [ "$want_torch" = 1 ]; then pkgs+=(libtorch-dev); fi
 

@@ -294,6 +294,108 @@ std::string read_readme() {
   return text.str();
 }
 
+TEST(Deck, SplatGeometryAndRender) {
+  const auto dir = scratch_dir();
+  std::ofstream(dir / "assets" / "object.ply") << "placeholder; only existence is checked\n";
+  std::ofstream(dir / "assets" / "cameras.json") << "[]\n";
+  const std::string text = kMinimalDeck + R"(
+[[geometry]]
+type = "splats"
+file = "assets/object.ply"
+scale = 2
+translate = [0, 0, 1]
+rotate_axis = [1, 0, 0]
+rotate_degrees = 90
+opacity_threshold = 0.1
+
+[render]
+center = [0, 0, 0.5]
+azimuth = 30
+elevation = 10
+radius = 2.5
+d_azimuth = 3
+width = 320
+height = 200
+background = [0, 0, 0]
+kinematics = "rigid_covariance"
+covariance_update = "rate"
+video = "mp4"
+)";
+  const Config c = load_deck(write_deck("splats.toml", text), {});
+  ASSERT_EQ(c.geometry.size(), 2u);
+  const GeometryConfig& g = c.geometry[1];
+  EXPECT_EQ(g.type, "splats");
+  EXPECT_EQ(fs::path(g.file), fs::absolute(dir / "assets" / "object.ply").lexically_normal());
+  EXPECT_EQ(g.scale, 2);
+  EXPECT_EQ(g.translate, (Vec3d{0, 0, 1}));
+  EXPECT_EQ(g.rotate_axis, (Vec3d{1, 0, 0}));
+  EXPECT_EQ(g.rotate_degrees, 90);
+  EXPECT_EQ(g.opacity_threshold, 0.1);
+  EXPECT_EQ(c.geometry[0].color, (Vec3d{0.75, 0.75, 0.75}));  // the sphere's default colour
+  const RenderConfig& r = c.render;
+  EXPECT_TRUE(r.enabled);
+  EXPECT_EQ(r.camera, "orbit");
+  EXPECT_EQ(r.center, (Vec3d{0, 0, 0.5}));
+  EXPECT_EQ(r.azimuth, 30);
+  EXPECT_EQ(r.elevation, 10);
+  EXPECT_EQ(r.radius, 2.5);
+  EXPECT_EQ(r.d_azimuth, 3);
+  EXPECT_EQ(r.width, 320);
+  EXPECT_EQ(r.height, 200);
+  EXPECT_EQ(r.background, (Vec3d{0, 0, 0}));
+  EXPECT_EQ(r.kinematics, "rigid_covariance");
+  EXPECT_EQ(r.covariance_update, "rate");
+  EXPECT_TRUE(r.mp4);
+  // The stored deck re-reads to the same values from anywhere (restarts).
+  const Config again = parse_deck(c.text, "<restart>", "/", {});
+  EXPECT_EQ(again.geometry[1].file, g.file);
+  EXPECT_EQ(again.geometry[1].rotate_degrees, 90);
+  EXPECT_EQ(again.render.d_azimuth, 3);
+  EXPECT_TRUE(again.render.mp4);
+  EXPECT_FALSE(parse_deck(kMinimalDeck, "<minimal>", ".", {}).render.enabled);
+
+  // A cameras.json entry, resolved against the deck's folder, keeps its index.
+  const std::string cam = kMinimalDeck + "\n[render]\ncamera = \"assets/cameras.json:3\"\n";
+  const Config cc = load_deck(write_deck("splats_camera.toml", cam), {});
+  EXPECT_EQ(cc.render.camera,
+            fs::absolute(dir / "assets" / "cameras.json").lexically_normal().string() + ":3");
+  EXPECT_EQ(parse_deck(cc.text, "<restart>", "/", {}).render.camera, cc.render.camera);
+}
+
+TEST(Deck, SplatAndRenderErrors) {
+  const auto dir = scratch_dir();
+  std::ofstream(dir / "assets" / "object.ply") << "placeholder\n";
+  const std::string splats =
+      kMinimalDeck + "\n[[geometry]]\ntype = \"splats\"\nfile = \"assets/object.ply\"\n";
+  struct Case {
+    std::string extra, needle;
+  };
+  const std::vector<Case> cases = {
+      {"color = [1, 0, 0]\n", "geometry.1.color"},       // splats keep their trained colours
+      {"opacity_threshold = 1\n", "must be in [0, 1)"},  // would drop every Gaussian
+      {"rotate_axis = [0, 0, 0]\n", "must not be the zero vector"},
+      {"\n[render]\ncamera = \"missing.json\"\n", "cameras file not found"},
+      {"\n[render]\nwidth = 0\n", "render.width"},
+      {"\n[render]\nelevation = 90\n", "render.elevation"},
+      {"\n[render]\nkinematics = \"frozen\"\n", "render.kinematics"},
+      {"\n[render]\nbackground = [2, 0, 0]\n", "colour channels must be in [0, 1]"},
+      {"\n[render]\nvideo = \"gif\"\n", "render.video"},
+  };
+  for (const Case& c : cases) {
+    const std::string msg = load_error("splat_error.toml", splats + c.extra);
+    EXPECT_NE(msg.find(c.needle), std::string::npos) << c.extra << " -> " << msg;
+    EXPECT_NE(msg.find("splat_error.toml:"), std::string::npos) << msg;
+  }
+  std::ofstream(dir / "assets" / "cameras.json") << "[]\n";
+  const std::string msg = load_error(
+      "splat_error.toml", splats + "\n[render]\ncamera = \"assets/cameras.json\"\nazimuth = 10\n");
+  EXPECT_NE(msg.find("only applies to camera = \"orbit\""), std::string::npos) << msg;
+  const std::string box_color =
+      load_error("color_error.toml",
+                 replace_line(kMinimalDeck, "radius = 0.5", "radius = 0.5\ncolor = [0.5, 1.5, 0]"));
+  EXPECT_NE(box_color.find("geometry.0.color"), std::string::npos) << box_color;
+}
+
 TEST(DeckDocs, ReadmeDocumentsEveryKey) {
   const std::string readme = read_readme();
   ASSERT_FALSE(readme.empty());

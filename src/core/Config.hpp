@@ -23,7 +23,7 @@ struct BoxRegion {
 
 //! One solid in the union that makes up the object.
 struct GeometryConfig {
-  std::string type;  //!< "box" | "sphere" | "capsule" | "mesh" | "vdb"
+  std::string type;  //!< "box" | "sphere" | "capsule" | "mesh" | "vdb" | "splats"
   // box
   Vec3d lo{0, 0, 0}, hi{0, 0, 0};
   // sphere
@@ -36,6 +36,14 @@ struct GeometryConfig {
   std::string grid;  //!< vdb grid name; empty = first level-set grid
   double scale = 1.0;
   Vec3d translate{0, 0, 0};
+  // splats (a 3DGS PLY in `file`): the transform maps a splat's position p to
+  // scale * R p + translate, with R the rotation by rotate_degrees about rotate_axis; Gaussians
+  // whose opacity is below opacity_threshold are dropped (PhysGaussian's 0.02 by default).
+  Vec3d rotate_axis{0, 0, 1};
+  double rotate_degrees = 0;
+  double opacity_threshold = 0.02;
+  //! Colour (linear RGB in [0, 1]) of the splats made from a non-splat part for rendering.
+  Vec3d color{0.75, 0.75, 0.75};
 };
 
 struct MaterialConfig {
@@ -162,6 +170,28 @@ struct OutputConfig {
   std::string volumes = "none";
 };
 
+//! [render]: images of the splats of a run (a deck's splat geometry, or splats made from its
+//! other geometry), one PNG per output frame under OUT/png/, optionally an MP4.
+struct RenderConfig {
+  bool enabled = false;          //!< the deck has a [render] table
+  std::string camera = "orbit";  //!< "orbit" | a 3DGS cameras.json "FILE[:INDEX]" (resolved)
+  // orbit camera (gaussians::OrbitCamera): degrees, world units; d_* per output frame
+  Vec3d center{0, 0, 0};
+  Vec3d up{0, 0, 1};
+  double azimuth = 0, elevation = 20, radius = 1;
+  double d_azimuth = 0, d_elevation = 0, d_radius = 0;
+  double fov_y = 45;  //!< degrees
+  int width = 640, height = 480;
+  Vec3d background{1, 1, 1};  //!< colour channels in [0, 1]
+  //! "full" | "fixed_covariance" | "rigid_covariance" | "fixed_harmonics" (seed's ablations)
+  std::string kinematics = "full";
+  //! MPM: "deformation_gradient" (a = F A0 F^T) | "rate" (a += dt (L a + a L^T))
+  std::string covariance_update = "deformation_gradient";
+  //! Spacing of the splats made from non-splat geometry; 0: the particle or voxel spacing.
+  double splat_spacing = 0;
+  bool mp4 = false;  //!< assemble png/ into OUT/render.mp4 where ffmpeg exists
+};
+
 struct Config {
   // [simulation]
   std::string name = "gen4d";
@@ -182,6 +212,7 @@ struct Config {
   MpmConfig mpm;
   std::vector<BoundaryConfig> boundaries;
   OutputConfig output;
+  RenderConfig render;
 
   std::string source;  //!< deck path ("<embedded>" for built-in text)
   std::string text;    //!< final deck text (TOML, overrides applied); stored in outputs

@@ -114,11 +114,14 @@ void read_domain(const Section& s, Config& c) {
 }
 
 std::vector<std::string> geometry_keys(const std::string& type) {
-  if (type == "box") return {"type", "lo", "hi"};
-  if (type == "sphere") return {"type", "center", "radius"};
-  if (type == "capsule") return {"type", "a", "b", "radius"};
-  if (type == "mesh") return {"type", "file", "scale", "translate"};
-  return {"type", "file", "grid", "scale", "translate"};  // vdb
+  if (type == "box") return {"type", "lo", "hi", "color"};
+  if (type == "sphere") return {"type", "center", "radius", "color"};
+  if (type == "capsule") return {"type", "a", "b", "radius", "color"};
+  if (type == "mesh") return {"type", "file", "scale", "translate", "color"};
+  if (type == "splats")
+    return {
+        "type", "file", "scale", "translate", "rotate_axis", "rotate_degrees", "opacity_threshold"};
+  return {"type", "file", "grid", "scale", "translate", "color"};  // vdb
 }
 
 //! Rejects keys of `table` that exist for some of its types but not for `type` (keys `own`).
@@ -163,10 +166,21 @@ std::string resolve_file(Section& s, const fs::path& base_dir, bool mesh) {
   return path.string();
 }
 
+void require_nonzero_vector(const Section& s, std::string_view key, const Vec3d& v) {
+  s.check(v[0] * v[0] + v[1] * v[1] + v[2] * v[2] > 0, key,
+          fmt::format("must not be the zero vector, got {}", v));
+}
+
+//! Colour channels in [0, 1].
+void require_unit_colour(const Section& s, std::string_view key, const Vec3d& c) {
+  for (double x : c)
+    s.check(x >= 0 && x <= 1, key, fmt::format("colour channels must be in [0, 1], got {}", c));
+}
+
 GeometryConfig read_geometry(Section& s, const fs::path& base_dir) {
   GeometryConfig g;
   s.string("type");  // presence and type first, then the value
-  g.type = s.choice("type", "", {"box", "sphere", "capsule", "mesh", "vdb"});
+  g.type = s.choice("type", "", {"box", "sphere", "capsule", "mesh", "vdb", "splats"});
   reject_foreign_geometry_keys(s, g.type);
   if (g.type == "box") {
     g.lo = s.vec3("lo");
@@ -187,6 +201,17 @@ GeometryConfig read_geometry(Section& s, const fs::path& base_dir) {
     g.scale = s.number("scale", g.scale);
     require_positive(s, "scale", g.scale);
     g.translate = s.vec3("translate", g.translate);
+  }
+  if (g.type == "splats") {
+    g.rotate_axis = s.vec3("rotate_axis", g.rotate_axis);
+    require_nonzero_vector(s, "rotate_axis", g.rotate_axis);
+    g.rotate_degrees = s.number("rotate_degrees", g.rotate_degrees);
+    g.opacity_threshold = s.number("opacity_threshold", g.opacity_threshold);
+    s.check(g.opacity_threshold >= 0 && g.opacity_threshold < 1, "opacity_threshold",
+            fmt::format("must be in [0, 1), got {}", g.opacity_threshold));
+  } else {
+    g.color = s.vec3("color", g.color);
+    require_unit_colour(s, "color", g.color);
   }
   return g;
 }
@@ -495,6 +520,68 @@ void read_output(const Section& s, OutputConfig& o) {
   o.volumes = s.choice("volumes", o.volumes, {"none", "vdb"});
 }
 
+//! "orbit", or a 3DGS cameras.json "FILE[:INDEX]" resolved against the deck's folder.
+std::string resolve_camera(Section& s, const fs::path& base_dir) {
+  const std::string spec = s.string("camera", "orbit");
+  if (spec == "orbit") return spec;
+  std::string file = spec, index;
+  const auto colon = spec.rfind(':');
+  if (colon != std::string::npos && colon + 1 < spec.size() &&
+      std::all_of(spec.begin() + static_cast<long>(colon) + 1, spec.end(),
+                  [](unsigned char ch) { return std::isdigit(ch) != 0; })) {
+    file = spec.substr(0, colon);
+    index = spec.substr(colon);
+  }
+  s.check(!file.empty(), "camera", "must be \"orbit\" or a cameras.json file[:index]");
+  const fs::path path = fs::absolute(base_dir / fs::path(file)).lexically_normal();
+  std::error_code ec;
+  s.check(fs::is_regular_file(path, ec), "camera",
+          fmt::format("cameras file not found: {}", path.string()));
+  s.replace("camera", path.string() + index);
+  return path.string() + index;
+}
+
+void read_render(Section& s, const fs::path& base_dir, RenderConfig& r) {
+  if (!s.present()) return;
+  r.enabled = true;
+  r.camera = resolve_camera(s, base_dir);
+  const bool orbit = r.camera == "orbit";
+  for (const char* key : {"center", "up", "azimuth", "elevation", "radius", "d_azimuth",
+                          "d_elevation", "d_radius", "fov_y", "width", "height"})
+    if (!orbit && s.has(key))
+      s.fail(key, "only applies to camera = \"orbit\" (a cameras.json entry sets its own view)");
+  r.center = s.vec3("center", r.center);
+  r.up = s.vec3("up", r.up);
+  require_nonzero_vector(s, "up", r.up);
+  r.azimuth = s.number("azimuth", r.azimuth);
+  r.elevation = s.number("elevation", r.elevation);
+  s.check(r.elevation > -90 && r.elevation < 90, "elevation",
+          fmt::format("must be in (-90, 90) degrees, got {}", r.elevation));
+  r.radius = s.number("radius", r.radius);
+  require_positive(s, "radius", r.radius);
+  r.d_azimuth = s.number("d_azimuth", r.d_azimuth);
+  r.d_elevation = s.number("d_elevation", r.d_elevation);
+  r.d_radius = s.number("d_radius", r.d_radius);
+  r.fov_y = s.number("fov_y", r.fov_y);
+  s.check(r.fov_y > 0 && r.fov_y < 180, "fov_y",
+          fmt::format("must be in (0, 180) degrees, got {}", r.fov_y));
+  r.width = s.integer("width", r.width);
+  require_at_least(s, "width", r.width, 1);
+  r.height = s.integer("height", r.height);
+  require_at_least(s, "height", r.height, 1);
+  s.check(static_cast<long long>(r.width) * r.height <= 16384LL * 16384LL, "width",
+          fmt::format("image of {} x {} pixels is too large", r.width, r.height));
+  r.background = s.vec3("background", r.background);
+  require_unit_colour(s, "background", r.background);
+  r.kinematics = s.choice("kinematics", r.kinematics,
+                          {"full", "fixed_covariance", "rigid_covariance", "fixed_harmonics"});
+  r.covariance_update =
+      s.choice("covariance_update", r.covariance_update, {"deformation_gradient", "rate"});
+  r.splat_spacing = s.number("splat_spacing", r.splat_spacing);
+  require_at_least(s, "splat_spacing", r.splat_spacing, 0.0);
+  r.mp4 = s.choice("video", "none", {"none", "mp4"}) == "mp4";
+}
+
 //! A mesh surface needs mesh geometry: every [[geometry]] part must be a mesh.
 void check_surface_source(const Section& s, const Config& c) {
   if (c.output.surface_source != "mesh") return;
@@ -613,6 +700,10 @@ Config parse_deck(const std::string& text, const std::string& source_name,
   const Section output = table_section(root, "output", loc);
   read_output(output, c.output);
   check_surface_source(output, c);
+  {
+    Section render = table_section(root, "render", loc);
+    read_render(render, fs::path(base_dir.empty() ? "." : base_dir), c.render);
+  }
 
   c.text = write_deck_text(root);
   c.source = source_name;

@@ -116,6 +116,10 @@ std::unique_ptr<Shape> make_part(const GeometryConfig& g) {
     if (g.type == "mesh") return load_triangle_mesh(g.file, g.scale, to_eigen(g.translate));
     return std::make_unique<VdbLevelSet>(g.file, g.grid, g.scale, to_eigen(g.translate));
   }
+  if (g.type == "splats")
+    throw InputError(
+        "a splats part is not a solid shape: only the elastogen and mpm solvers take splat "
+        "geometry");
   throw InputError(fmt::format(
       "unknown geometry type '{}' (expected box, sphere, capsule, mesh or vdb)", g.type));
 }
