@@ -19,6 +19,7 @@
 
 #include "DefaultDeck.hpp"
 #include "cli/NeuralCommands.hpp"
+#include "cli/RenderCommand.hpp"
 #include "core/BuildInfo.hpp"
 #include "core/Deck.hpp"
 #include "core/Error.hpp"
@@ -99,8 +100,9 @@ int run_simulation(elastogen::Simulation& sim, const std::string& out, bool appe
 }
 
 int cmd_run(const RunArgs& a) {
-  Config cfg = a.deck.empty() ? parse_deck(default_deck_text, "<embedded default>", ".", a.sets)
-                              : load_deck(a.deck, a.sets);
+  Config cfg = a.deck.empty()
+                   ? parse_deck(default_deck_text, "<embedded default>", default_deck_dir(), a.sets)
+                   : load_deck(a.deck, a.sets);
   const std::string out = a.out.empty() ? cfg.output.dir : a.out;
   if (cfg.solver.method == "mpm") {
     mpm::MpmSimulation sim(MPI_COMM_WORLD, cfg);  // validates material and geometry
@@ -361,6 +363,7 @@ int dispatch(int argc, char** argv) {
       ->take_all();
 
   const NeuralCommands neural(app);
+  const RenderCommand render(app);
 
   try {
     app.parse(argc, argv);
@@ -368,6 +371,7 @@ int dispatch(int argc, char** argv) {
     return rank_of(MPI_COMM_WORLD) == 0 ? app.exit(e) : 0;
   }
   if (const int code = neural.run(); code >= 0) return code;
+  if (const int code = render.run(); code >= 0) return code;
   if (*run) return cmd_run(ra);
   if (*restart) return cmd_restart(ckpt, rs_out, rs_sets);
   if (*info) return cmd_info();

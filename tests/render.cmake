@@ -1,0 +1,18 @@
+# The 3DGS renderer (src/gaussians): analytic images, brute-force reference, the distributed
+# render bit for bit at 1, 2 and 4 ranks, cameras.json and the JSON reader.
+gen4d_test(render SOURCES test_render.cpp LIBS gen4d_gaussians RANKS 1 2 4)
+# gen4d render end to end on the donut (../shared/data/splats/donut): views from a cameras.json
+# and an orbit at 1 and 2 ranks (identical PNGs), and bad inputs (exit 2, nothing written).
+if(TARGET gen4d)
+  add_test(NAME cli_render
+           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/cli_render.sh $<TARGET_FILE:gen4d>
+                   ${MPIEXEC_EXECUTABLE} ${CMAKE_CURRENT_BINARY_DIR}/scratch/cli_render
+                   ${GEN4D_SHARED_DIR}/data/splats/donut/point_cloud.ply)
+  set_tests_properties(cli_render PROPERTIES ENVIRONMENT "${GEN4D_TEST_ENV}" PROCESSORS 2
+                       TIMEOUT 300)
+endif()
+# Benchmark: must run and print its JSON at 1 and 2 ranks (small synthetic case).
+gen4d_driver_twin(bench_render_quick bench_render "1;2"
+                  ARGS --splats 20000 --frames 1
+                       --donut ${GEN4D_SHARED_DIR}/data/splats/donut/point_cloud.ply
+                  PASS "\"identical\": true")
