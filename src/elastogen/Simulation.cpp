@@ -1,5 +1,7 @@
 #include "elastogen/Simulation.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <csignal>
 #include <filesystem>
@@ -13,6 +15,9 @@
 #include "core/Log.hpp"
 #include "core/Signals.hpp"
 #include "core/Progress.hpp"
+#include "gaussians/DeckSplats.hpp"
+#include "gaussians/Render.hpp"
+#include "gaussians/Video.hpp"
 #include "geometry/Shape.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/FrameWriter.hpp"
@@ -42,10 +47,43 @@ io::NodeBox to_io(const Box& b) {
   return io::NodeBox{b.start, b.count};
 }
 
+//! Part i of the deck alone, its errors naming [[geometry]] #i + 1 as make_shape does.
+std::unique_ptr<geometry::Shape> make_part(const GeometryConfig& g, std::size_t i) {
+  try {
+    return geometry::make_shape({g});
+  } catch (const InputError& e) {
+    std::string msg = e.what();
+    const std::string alone = fmt::format("[[geometry]] #1 ({}): ", g.type);
+    if (msg.rfind(alone, 0) == 0) msg.erase(0, alone.size());
+    throw InputError(fmt::format("[[geometry]] #{} ({}): {}", i + 1, g.type, msg));
+  }
+}
+
+//! PNG of frame `index` under the render folder.
+std::string png_name(long index) {
+  return fmt::format("frame_{:06d}.png", index);
+}
+
+//! Index of a "frame_NNNNNN.png" name, else -1.
+long png_index(const std::string& name) {
+  const std::string head = "frame_", tail = ".png";
+  if (name.size() <= head.size() + tail.size() || name.rfind(head, 0) != 0 ||
+      name.compare(name.size() - tail.size(), tail.size(), tail) != 0)
+    return -1;
+  const std::string digits = name.substr(head.size(), name.size() - head.size() - tail.size());
+  if (digits.size() > 12 || !std::all_of(digits.begin(), digits.end(),
+                                         [](unsigned char c) { return std::isdigit(c) != 0; }))
+    return -1;
+  return std::stol(digits);
+}
+
 }  // namespace
 
 DomainLayout layout_domain(const Config& cfg, const geometry::Shape& shape) {
-  const geometry::Aabb b = shape.bounds();
+  return layout_domain(cfg, shape.bounds());
+}
+
+DomainLayout layout_domain(const Config& cfg, const geometry::Aabb& b) {
   DomainLayout d;
   const double h = cfg.voxel_size;
   for (int a = 0; a < 3; ++a) {
@@ -59,14 +97,71 @@ DomainLayout layout_domain(const Config& cfg, const geometry::Shape& shape) {
   return d;
 }
 
+DeckObject build_deck_object(const Config& cfg) {
+  DeckObject obj;
+  const std::size_t n = cfg.geometry.size();
+  for (const auto& g : cfg.geometry)
+    obj.has_splat_parts = obj.has_splat_parts || g.type == "splats";
+  obj.has_splats = obj.has_splat_parts || cfg.render.enabled;
+  if (!obj.has_splats) {
+    obj.shape = geometry::make_shape(cfg.geometry);
+    obj.layout = layout_domain(cfg, *obj.shape);
+    return obj;
+  }
+  if (n == 0) throw InputError("the object has no geometry parts");
+  std::vector<std::unique_ptr<geometry::Shape>> parts(n);
+  std::vector<gaussians::SplatSet> loaded(n);
+  geometry::Aabb bounds;
+  for (std::size_t i = 0; i < n; ++i) {
+    const GeometryConfig& g = cfg.geometry[i];
+    if (g.type != "splats") {
+      parts[i] = make_part(g, i);
+      bounds.extend(parts[i]->bounds());
+      continue;
+    }
+    try {
+      loaded[i] = gaussians::load_geometry_splats(g);
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("[[geometry]] #{} (splats): {}", i + 1, e.what()));
+    }
+    const auto& p = loaded[i].position;
+    for (std::size_t k = 0; k + 2 < p.size(); k += 3)
+      bounds.extend(Eigen::Vector3d(p[k], p[k + 1], p[k + 2]));
+  }
+  obj.layout = layout_domain(cfg, bounds);
+  const double spacing =
+      cfg.render.splat_spacing > 0 ? cfg.render.splat_spacing : 0.5 * cfg.voxel_size;
+  for (std::size_t i = 0; i < n; ++i) {
+    const GeometryConfig& g = cfg.geometry[i];
+    if (g.type == "splats") {
+      append_splats(obj.splats, loaded[i]);
+      parts[i] =
+          std::make_unique<gaussians::SplatOccupancy>(loaded[i], cfg.voxel_size, obj.layout.origin);
+      loaded[i] = gaussians::SplatSet();  // the occupancy keeps its own cells
+    } else {
+      append_splats(obj.splats, gaussians::splats_from_shape(*parts[i], spacing, g.color));
+    }
+  }
+  if (parts.size() == 1)
+    obj.shape = std::move(parts.front());
+  else
+    obj.shape = std::make_unique<geometry::Union>(std::move(parts));
+  return obj;
+}
+
 Simulation::Simulation(MPI_Comm comm, const Config& cfg) : comm_(comm), cfg_(cfg) {
   MPI_Comm_rank(comm, &rank_);
   MPI_Comm_size(comm, &size_);
-  auto shape = [&] {
+  if (cfg_.render.enabled) {  // bad render settings fail before the set-up's work
+    kinematics_ = gaussians::KinematicsOptions::parse(cfg_.render.kinematics, "render.kinematics");
+    if (cfg_.render.camera != "orbit") camera_ = gaussians::read_camera_spec(cfg_.render.camera);
+  }
+  DeckObject object = [&] {
     PhaseTimers::Scope t(timers_, "voxelize");
-    return geometry::make_shape(cfg_.geometry);
+    return build_deck_object(cfg_);
   }();
-  layout_ = layout_domain(cfg_, *shape);
+  const std::unique_ptr<geometry::Shape> shape = std::move(object.shape);
+  layout_ = object.layout;
   grid_ = std::make_unique<parallel::NodeGrid>(comm, layout_.nodes);
   std::vector<std::uint8_t> occ;
   {
@@ -111,6 +206,18 @@ Simulation::Simulation(MPI_Comm comm, const Config& cfg) : comm_(comm), cfg_(cfg
                   ? fmt::format("; {} vertices lie outside the solid voxels and follow the "
                                 "nearest one (at most {:.2f} voxel away)",
                                 surface_->extrapolated_vertices(), surface_->max_extrapolation())
+                  : std::string());
+  }
+  if (object.has_splats) {
+    PhaseTimers::Scope t(timers_, "setup");
+    splats_ = std::make_unique<SplatEmbedding>(*sys_, *shape, object.splats);
+    object.splats = gaussians::SplatSet();
+    log::info("splats: {} Gaussian(s) of SH degree {} ride the voxels{}", splats_->count(),
+              splats_->sh_degree(),
+              splats_->extrapolated() > 0
+                  ? fmt::format("; {} lie outside the solid voxels and follow the nearest one "
+                                "(at most {:.2f} voxel away)",
+                                splats_->extrapolated(), splats_->max_extrapolation())
                   : std::string());
   }
 }
@@ -218,12 +325,15 @@ std::unique_ptr<io::FrameWriter> Simulation::open_frames(const std::string& out_
 }
 
 void Simulation::write_frame(io::FrameWriter& writer) {
-  PhaseTimers::Scope t(timers_, "io");
-  const auto x = owned_positions();
-  const auto v = owned_velocities();
-  writer.write_frame(time_, static_cast<int>(step_), to_io(grid_->owned_nodes()), x.data(),
-                     v.data());
-  if (surface_) write_surface(writer.frames().back().index);
+  {
+    PhaseTimers::Scope t(timers_, "io");
+    const auto x = owned_positions();
+    const auto v = owned_velocities();
+    writer.write_frame(time_, static_cast<int>(step_), to_io(grid_->owned_nodes()), x.data(),
+                       v.data());
+    if (surface_) write_surface(writer.frames().back().index);
+  }
+  if (cfg_.render.enabled) render_frame(writer.frames().back().index);
   ++frame_index_;
   next_frame_time_ = time_ + cfg_.output.frame_interval;
 }
@@ -265,10 +375,74 @@ void Simulation::write_surface(long index) {
   surface_write_seconds_ += MPI_Wtime() - gathered;
 }
 
+void Simulation::open_render(const std::string& out_dir, const io::FrameWriter& writer) {
+  if (!cfg_.render.enabled) return;
+  PhaseTimers::Scope t(timers_, "render");
+  png_dir_ = (std::filesystem::path(out_dir) / "png").string();
+  // Images later than the last frame kept belong to a run that frames.h5 no longer holds.
+  const long keep = writer.frames().empty() ? -1 : writer.frames().back().index;
+  on_rank0(comm_, rank_, png_dir_ + ": cannot prepare", [&] {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    fs::create_directories(png_dir_, ec);
+    if (ec) throw RuntimeError(png_dir_ + ": cannot create directory: " + ec.message());
+    std::vector<fs::path> doomed;
+    for (const auto& entry : fs::directory_iterator(png_dir_, ec))
+      if (png_index(entry.path().filename().string()) > keep) doomed.push_back(entry.path());
+    if (ec) throw RuntimeError(png_dir_ + ": cannot list: " + ec.message());
+    for (const auto& p : doomed)
+      if (!fs::remove(p, ec) && ec)
+        throw RuntimeError(p.string() + ": cannot remove: " + ec.message());
+  });
+}
+
+void Simulation::render_frame(long index) {
+  PhaseTimers::Scope t(timers_, "render");
+  const RenderConfig& r = cfg_.render;
+  gaussians::Camera camera = camera_;
+  if (r.camera == "orbit") {
+    gaussians::OrbitCamera orbit;
+    orbit.center = r.center;
+    orbit.up = r.up;
+    orbit.azimuth = r.azimuth;
+    orbit.elevation = r.elevation;
+    orbit.radius = r.radius;
+    orbit.d_azimuth = r.d_azimuth;
+    orbit.d_elevation = r.d_elevation;
+    orbit.d_radius = r.d_radius;
+    orbit.fov_y_degrees = r.fov_y;
+    orbit.width = r.width;
+    orbit.height = r.height;
+    camera = orbit.at_frame(index);
+  }
+  gaussians::RenderOptions options;
+  for (int c = 0; c < 3; ++c) options.background[c] = static_cast<float>(r.background[c]);
+  // Ghost positions are current after every step, reset and restart.
+  const gaussians::SplatFrame local = splats_->frame(dyn_->x().data(), kinematics_);
+  const gaussians::Image image = gaussians::render_distributed(comm_, local, camera, options);
+  on_rank0(comm_, rank_, png_dir_ + ": render write failed", [&] {
+    gaussians::write_image_png((std::filesystem::path(png_dir_) / png_name(index)).string(), image);
+  });
+  ++png_files_;
+}
+
+void Simulation::assemble_video(const std::string& out_dir) {
+  if (!cfg_.render.enabled || !cfg_.render.mp4 || png_files_ == 0) return;
+  PhaseTimers::Scope t(timers_, "render");
+  // Real time where it is a sensible frame rate, else the nearest bound of [1, 60] fps.
+  const double interval = cfg_.output.frame_interval > 0 ? cfg_.output.frame_interval : cfg_.dt;
+  const double fps = std::clamp(1.0 / interval, 1.0, 60.0);
+  const std::string mp4 = (std::filesystem::path(out_dir) / "render.mp4").string();
+  // assemble_mp4 notes itself what it wrote, or that ffmpeg is missing.
+  on_rank0(comm_, rank_, mp4 + ": video assembly failed",
+           [&] { gaussians::assemble_mp4(png_dir_, fps, mp4); });
+}
+
 RunResult Simulation::run(const std::string& out_dir, bool append) {
   RunResult res;
   auto writer = open_frames(out_dir, append);
   open_surface(out_dir, *writer);
+  open_render(out_dir, *writer);
   const double dt = cfg_.dt;
   const long total_steps = static_cast<long>(std::ceil(cfg_.end_time / dt - 1e-9));
   if (!append && step_ == 0) write_frame(*writer);
@@ -312,17 +486,22 @@ RunResult Simulation::run(const std::string& out_dir, bool append) {
         surface_files_, surface_dir_, surface_bytes_ / 1e6,
         1e3 * surface_gather_seconds_ / static_cast<double>(surface_files_),
         1e3 * surface_write_seconds_ / static_cast<double>(surface_files_));
+  if (png_files_ > 0)
+    log::info("render: {} image(s) in {}; {:.2f} s per frame (splat kinematics + render + write)",
+              png_files_, png_dir_, timers_.total("render") / static_cast<double>(png_files_));
+  if (res.exit_code == 0) assemble_video(out_dir);
   report_timers(res.wall_seconds, res.steps);
   return res;
 }
 
 void Simulation::report_timers(double wall, long steps) const {
   // The slowest rank's time per phase is what bounds the run.
-  const char* phases[] = {"voxelize", "setup", "stencil+svd", "subspace",
-                          "sweeps",   "halo",  "reduction",   "io"};
+  const char* phases[] = {"voxelize", "setup",     "stencil+svd", "subspace", "sweeps",
+                          "halo",     "reduction", "io",          "render"};
   log::info("phase timers (max over ranks, wall {:.2f} s, {:.2f} steps/s):", wall,
             static_cast<double>(steps) / std::max(wall, 1e-9));
   for (const char* p : phases) {
+    if (std::string(p) == "render" && !cfg_.render.enabled) continue;
     double local = timers_.total(p), global = 0;
     MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_MAX, comm_);
     log::info("  {:<12} {:9.3f} s  {:5.1f} %", p, global, 100.0 * global / std::max(wall, 1e-9));

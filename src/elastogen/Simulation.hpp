@@ -1,16 +1,21 @@
 //! A whole ElastoGen run: domain set-up from the deck, the time loop with progress lines,
-//! HDF5 frames, checkpoints (periodic, final, on SIGTERM/SIGUSR1) and restart.
+//! HDF5 frames, surfaces and rendered splats, checkpoints (periodic, final, on SIGTERM/SIGUSR1)
+//! and restart.
 #pragma once
 
 #include <mpi.h>
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "core/Config.hpp"
 #include "core/Timers.hpp"
 #include "elastogen/Elastodynamics.hpp"
+#include "elastogen/SplatEmbedding.hpp"
 #include "elastogen/SurfaceEmbedding.hpp"
+#include "gaussians/Camera.hpp"
+#include "gaussians/Kinematics.hpp"
 #include "geometry/Shape.hpp"
 #include "io/FrameWriter.hpp"
 #include "io/SurfaceIO.hpp"
@@ -24,6 +29,26 @@ struct DomainLayout {
   std::array<long, 3> nodes{0, 0, 0};
 };
 DomainLayout layout_domain(const Config& cfg, const geometry::Shape& shape);
+//! The same for an object with world bounds `bounds`.
+DomainLayout layout_domain(const Config& cfg, const geometry::Aabb& bounds);
+
+//! The object of a deck: the solid its voxels are made from and, where the deck has splat parts
+//! or a [render] table, the splats that show it.
+//! - A "splats" part is loaded by gaussians::load_geometry_splats and occupies the voxels of
+//!   gaussians::SplatOccupancy on the run's grid (cells of edge voxel_size anchored at the
+//!   layout's origin, which the splat means' bounds and the other parts' bounds decide).
+//! - Every other part is geometry::make_shape's, and is shown by gaussians::splats_from_shape at
+//!   render.splat_spacing (voxel_size / 2 when 0) in the part's colour.
+//! Parts keep the deck's order in the union and in the splat set (splat i of a part follows
+//! every splat of the parts before it). InputError names the [[geometry]] table at fault.
+struct DeckObject {
+  DomainLayout layout;
+  std::unique_ptr<geometry::Shape> shape;
+  bool has_splat_parts = false;
+  bool has_splats = false;     //!< `splats` was built (splat parts or a [render] table)
+  gaussians::SplatSet splats;  //!< every rank holds all of them
+};
+DeckObject build_deck_object(const Config& cfg);
 
 struct RunResult {
   int exit_code = 0;  //!< 0 finished, 1 stopped by a signal or failure
@@ -52,6 +77,8 @@ class Simulation {
   PhaseTimers& timers() { return timers_; }
   //! The surface written per frame (output.surface != "none"), else null.
   const SurfaceEmbedding* surface() const { return surface_.get(); }
+  //! The splats carried by the voxels (splat parts or a [render] table), else null.
+  const SplatEmbedding* splats() const { return splats_.get(); }
   //! Owned-node positions / velocities packed x-fastest (3 per node), for output and tests.
   std::vector<double> owned_positions() const;
   std::vector<double> owned_velocities() const;
@@ -69,6 +96,12 @@ class Simulation {
   void open_surface(const std::string& out_dir, const io::FrameWriter& writer);
   //! Writes the surface of frame `index` (rank 0 writes; every rank evaluates). Collective.
   void write_surface(long index);
+  //! Creates out_dir/png and removes images later than the frames kept. Collective.
+  void open_render(const std::string& out_dir, const io::FrameWriter& writer);
+  //! Renders the splats of frame `index` to png/frame_NNNNNN.png (rank 0 writes). Collective.
+  void render_frame(long index);
+  //! Assembles png/ into out_dir/render.mp4 when render.mp4 asks for it (rank 0).
+  void assemble_video(const std::string& out_dir);
   void report_timers(double wall, long steps) const;
 
   MPI_Comm comm_;
@@ -89,6 +122,11 @@ class Simulation {
   std::string surface_dir_;
   long surface_files_ = 0;
   double surface_gather_seconds_ = 0, surface_write_seconds_ = 0, surface_bytes_ = 0;
+  std::unique_ptr<SplatEmbedding> splats_;
+  gaussians::KinematicsOptions kinematics_;
+  gaussians::Camera camera_;  //!< render.camera from a cameras.json (unused for "orbit")
+  std::string png_dir_;
+  long png_files_ = 0;
 };
 
 }  // namespace gen4d::elastogen

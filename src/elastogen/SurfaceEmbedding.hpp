@@ -4,10 +4,12 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "core/Config.hpp"
+#include "elastogen/PointEmbedding.hpp"
 #include "elastogen/VoxelSystem.hpp"
 #include "geometry/Shape.hpp"
 
@@ -22,19 +24,13 @@ enum class SurfaceSource {
 //! [[geometry]] part is a mesh (several mesh parts are concatenated), else Voxels.
 SurfaceSource choose_surface_source(const Config& cfg);
 
-//! Vertex placement (fixed at construction, from the rest state):
-//! - Mesh vertex: embedded in the voxel containing it (global cell floor((p - origin) / h),
-//!   clamped to the grid) when that voxel is solid. Centre-sampled voxelization misses thin
-//!   parts, so a vertex may sit in an empty voxel; it is then embedded in the nearest solid
-//!   voxel (Euclidean distance from the vertex to the voxel's box; ties go to the lower global
-//!   cell index) with its unclamped local coordinates, i.e. the trilinear map of that voxel
-//!   is extrapolated. Extrapolation keeps the rest shape exact and stays exact for any affine
-//!   motion of the voxel, where clamping would snap thin features onto the voxels.
+//! Vertex placement (fixed at construction, from the rest state; see PointEmbedding.hpp):
+//! - Mesh vertex: anchored by PointPlacer, in the voxel containing it, or extrapolated from the
+//!   nearest solid voxel when the voxelization missed it.
 //! - Voxel-boundary vertex: a grid node, placed exactly at that node.
-//! A vertex's position is then sum_m w_m x_m over the 8 corners m of its voxel, with the
-//! weights of its rest local coordinates, summed in a fixed corner order (zero weights
-//! skipped). Each rank evaluates the vertices of the voxels (or nodes) it owns, so the result
-//! does not depend on the decomposition. Construction and gather() are collective.
+//! A vertex's position is then the trilinear interpolation of its voxel's corners, evaluated by
+//! the rank owning that voxel (or node), so the result does not depend on the decomposition.
+//! Construction and gather() are collective.
 class SurfaceEmbedding {
  public:
   //! `shape` is the object the voxels were made from (consulted for the occupancy of voxels
@@ -53,26 +49,19 @@ class SurfaceEmbedding {
   //! Triangles (vertex ids) on rank 0; empty on the other ranks.
   const std::vector<std::array<std::int32_t, 3>>& triangles() const { return triangles_; }
   //! Global ids of the vertices this rank evaluates, ascending.
-  const std::vector<long>& local_ids() const { return ids_; }
+  const std::vector<long>& local_ids() const { return points_->local_ids(); }
 
   //! Positions of this rank's vertices (3 per vertex, order of local_ids()) from a node field
   //! on the ghosted box whose ghosts are current.
-  void evaluate(const double* x, std::vector<double>& out) const;
+  void evaluate(const double* x, std::vector<double>& out) const { points_->evaluate(x, out); }
   //! All vertex positions in id order on rank 0 (empty elsewhere). Collective.
-  std::vector<double> gather(const double* x) const;
+  std::vector<double> gather(const double* x) const { return points_->gather(x); }
 
  private:
-  struct Anchor {
-    long id;
-    std::array<long, 3> base;  //!< global node of the lower corner of the voxel (or the node)
-    std::array<double, 3> t;   //!< local coordinates in that voxel (0 for a node)
-  };
-  void build_mesh(const geometry::Shape& shape);
-  void build_voxels(const geometry::Shape& shape);
-  //! Keeps the anchors whose voxel this rank owns and sends the others to their owners.
-  void distribute(std::vector<Anchor> anchors);
-  void finish(std::vector<Anchor> anchors);
-  int owner_of_node(const std::array<long, 3>& n) const;
+  //! This rank's anchors of the mesh vertices.
+  std::vector<PointAnchor> build_mesh(const geometry::Shape& shape);
+  //! Rank 0: the boundary quads' triangles and one anchor per boundary node.
+  std::vector<PointAnchor> build_voxels(const geometry::Shape& shape);
 
   const VoxelSystem& sys_;
   MPI_Comm comm_;
@@ -81,14 +70,7 @@ class SurfaceEmbedding {
   long vertex_count_ = 0, triangle_count_ = 0, extrapolated_ = 0;
   double max_extrapolation_ = 0;
   std::vector<std::array<std::int32_t, 3>> triangles_;
-  std::vector<long> ids_;
-  std::vector<std::size_t> base_;  //!< ghosted linear index of the base node
-  std::vector<std::array<double, 8>> weights_;
-  std::array<std::size_t, 8> corner_offset_{};
-  std::vector<int> gather_counts_, gather_displs_;  //!< rank 0: 3 * vertices per rank
-  std::vector<long> gather_ids_;                    //!< rank 0: ids in gather order
-  std::array<std::vector<long>, 3> owner_ends_;     //!< end of each process's node range per axis
-  std::array<long, 3> procs_{1, 1, 1};
+  std::unique_ptr<PointEmbedding> points_;
 };
 
 }  // namespace gen4d::elastogen

@@ -14,10 +14,39 @@
 #include "geometry/Shape.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/Hdf5.hpp"
+#include "gaussians/DeckSplats.hpp"
+#include "gaussians/Ply.hpp"
+#include "gaussians/Render.hpp"
+#include "gaussians/Video.hpp"
 #include "mpm/Seeding.hpp"
 
 namespace gen4d::mpm {
 namespace fs = std::filesystem;
+
+namespace {
+
+//! Splat attributes of lattice particles: isotropic splats of standard deviation half the
+//! spacing (render.splat_spacing, else the particle spacing), coloured by the first of
+//! `parts` (deck order) that holds the particle.
+void add_lattice_splats(Particles& p, const SplatLayout& layout, const Config& cfg,
+                        const std::vector<GeometryConfig>& parts, double particle_spacing) {
+  const double spacing = cfg.render.splat_spacing > 0 ? cfg.render.splat_spacing : particle_spacing;
+  std::vector<std::unique_ptr<geometry::Shape>> shapes;
+  if (parts.size() > 1)
+    for (const GeometryConfig& g : parts) shapes.push_back(geometry::make_shape({g}));
+  const int W = layout.width();
+  p.extra_width = W;
+  p.extra.assign(static_cast<std::size_t>(W) * p.size(), 0.0);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    std::size_t part = 0;
+    const Eigen::Vector3d x(p.x[3 * i], p.x[3 * i + 1], p.x[3 * i + 2]);
+    while (part + 1 < shapes.size() && !shapes[part]->inside(x)) ++part;
+    isotropic_rest_values(0.5 * spacing, 0.95, parts[part].color.data(), layout,
+                          &p.extra[static_cast<std::size_t>(W) * i]);
+  }
+}
+
+}  // namespace
 
 GridSpec layout_grid(const Config& cfg, const geometry::Aabb& object) {
   GridSpec g;
@@ -61,8 +90,34 @@ MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm
   MPI_Comm_rank(comm, &rank_);
   MPI_Comm_size(comm, &size_);
   auto material = make_deck_material(cfg_);
-  auto shape = geometry::make_shape(cfg_.geometry);
-  spec_ = layout_grid(cfg_, shape->bounds());
+  // Splat parts become one particle per Gaussian; the others are seeded on the lattice.
+  std::vector<GeometryConfig> solid_parts;
+  std::vector<gaussians::SplatSet> sets;
+  for (const GeometryConfig& g : cfg_.geometry) {
+    if (g.type == "splats")
+      sets.push_back(gaussians::load_geometry_splats(g));
+    else
+      solid_parts.push_back(g);
+  }
+  const gaussians::SplatSet splats = merge_splat_sets(sets);
+  std::unique_ptr<geometry::Shape> shape;
+  geometry::Aabb bounds;
+  if (!solid_parts.empty()) {
+    shape = geometry::make_shape(solid_parts);
+    bounds = shape->bounds();
+  }
+  for (std::size_t i = 0; i < splats.size(); ++i)
+    bounds.extend(Eigen::Vector3d(splats.position[3 * i], splats.position[3 * i + 1],
+                                  splats.position[3 * i + 2]));
+  spec_ = layout_grid(cfg_, bounds);
+  carries_splats_ = !sets.empty() || cfg_.render.enabled;
+  layout_.sh_degree = splats.sh_degree;
+  kinematics_ = gaussians::KinematicsOptions::parse(cfg_.render.kinematics,
+                                                    cfg_.source + ": key 'render.kinematics'");
+  covariance_update_ = parse_covariance_update(cfg_.render.covariance_update,
+                                               cfg_.source + ": key 'render.covariance_update'");
+  if (cfg_.render.enabled && cfg_.render.camera != "orbit")
+    fixed_camera_ = gaussians::read_camera_spec(cfg_.render.camera);
   SolverOptions opt;
   opt.gravity = cfg_.gravity;
   opt.max_dt = cfg_.dt;
@@ -80,10 +135,18 @@ MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm
         "limit dx / c = {:.3g} s; the instability guard will stop the run if it blows up",
         cfg_.dt, cfg_.dt / limit, limit);
   if (!seed) return;
-  Particles p = seed_particles(comm_, spec_, *shape, cfg_.mpm.particles_per_axis, *material,
-                               cfg_.mpm.velocity);
+  const int ppa = cfg_.mpm.particles_per_axis;
+  Particles p;
+  if (shape) p = seed_particles(comm_, spec_, *shape, ppa, *material, cfg_.mpm.velocity);
+  if (carries_splats_) add_lattice_splats(p, layout_, cfg_, solid_parts, spec_.dx / ppa);
   long long n = static_cast<long long>(p.size());
   MPI_Allreduce(MPI_IN_PLACE, &n, 1, MPI_LONG_LONG, MPI_SUM, comm_);
+  if (splats.size() > 0) {
+    // Ids after the lattice particles', in the deck's splat order.
+    p.append(seed_splats(comm_, spec_, splats, *material, cfg_.mpm.velocity, n, layout_.sh_degree,
+                         cfg_.source));
+    n += static_cast<long long>(splats.size());
+  }
   if (n == 0)
     throw InputError(cfg_.source +
                      ": the geometry holds no particle of the MPM grid (is the object inside "
@@ -96,9 +159,9 @@ MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm
   if (size_ > 1)
     log::info("mpm: static balance over {} ranks: {} to {} particles per rank (max / mean {:.3f})",
               size_, least, most, static_cast<double>(most) * size_ / static_cast<double>(n));
-  log::info("mpm: {} particles ({} per cell), grid {} x {} x {} cells of {:.4g} m, material {}",
-            total_,
-            cfg_.mpm.particles_per_axis * cfg_.mpm.particles_per_axis * cfg_.mpm.particles_per_axis,
+  log::info("mpm: {} particles ({} per cell{}), grid {} x {} x {} cells of {:.4g} m, material {}",
+            total_, ppa * ppa * ppa,
+            (splats.size() == 0) ? std::string() : fmt::format("; {} from splats", splats.size()),
             spec_.cells[0], spec_.cells[1], spec_.cells[2], spec_.dx, material->name());
 }
 
@@ -122,6 +185,12 @@ void MpmSimulation::load_checkpoint(const std::string& path) {
   };
   solver_->set_counters(static_cast<long long>(get("removed")),
                         static_cast<long long>(get("clamped")));
+  carries_splats_ = !meta.extra_names.empty();
+  if (carries_splats_) layout_ = SplatLayout::from_names(meta.extra_names, path);
+  if (cfg_.render.enabled && !carries_splats_)
+    throw InputError(path +
+                     ": the checkpoint holds no splat attributes to render ([render] "
+                     "needs a checkpoint of a run with [render] or splat geometry)");
   solver_->distribute(std::move(p));
   log::info("restart from {}: substep {}, t = {:.6g} s, {} particles alive", path, step_, time_,
             solver_->count());
@@ -137,6 +206,7 @@ std::string MpmSimulation::write_checkpoint(const std::string& out_dir, const Sn
   st.deck_text = cfg_.text;
   st.total_particles = total_;
   st.state_names = solver_->material().state_names();
+  if (carries_splats_) st.extra_names = layout_.names();
   st.extras["removed"] = static_cast<double>(solver_->removed());
   st.extras["clamped"] = static_cast<double>(solver_->clamped());
   st.particles = from ? &from->particles : &solver_->particles();
@@ -182,7 +252,61 @@ void MpmSimulation::write_frame(ParticleFrameWriter& writer, const std::string& 
     write_particle_vdb(
         comm_, (fs::path(out_dir) / "volumes" / fmt::format("volume_{:06d}.vdb", index)).string(),
         p, spec_.dx);
+  if (cfg_.output.particles == "ply" && carries_splats_) {
+    const gaussians::SplatSet deformed =
+        gather_deformed_splats(comm_, p, layout_, kinematics_, covariance_update_);
+    std::string error;
+    if (rank_ == 0) {
+      try {
+        gaussians::write_splats_ply(
+            (fs::path(out_dir) / "splats" / fmt::format("splats_{:06d}.ply", index)).string(),
+            deformed);
+      } catch (const std::exception& e) {
+        error = e.what();
+      }
+    }
+    error = io::h5::first_error(comm_, error);
+    if (!error.empty()) throw RuntimeError(error);
+  }
   io_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (cfg_.render.enabled) render_frame(index, out_dir);
+}
+
+void MpmSimulation::render_frame(int index, const std::string& out_dir) {
+  PhaseTimers::Scope scope(solver_->timers(), "render");
+  const RenderConfig& r = cfg_.render;
+  gaussians::Camera camera = fixed_camera_;
+  if (r.camera == "orbit") {
+    gaussians::OrbitCamera orbit;
+    orbit.center = r.center;
+    orbit.up = r.up;
+    orbit.azimuth = r.azimuth;
+    orbit.elevation = r.elevation;
+    orbit.radius = r.radius;
+    orbit.d_azimuth = r.d_azimuth;
+    orbit.d_elevation = r.d_elevation;
+    orbit.d_radius = r.d_radius;
+    orbit.fov_y_degrees = r.fov_y;
+    orbit.width = r.width;
+    orbit.height = r.height;
+    camera = orbit.at_frame(index);
+  }
+  gaussians::RenderOptions options;
+  for (int c = 0; c < 3; ++c) options.background[c] = static_cast<float>(r.background[c]);
+  const gaussians::SplatFrame frame =
+      splat_frame(solver_->particles(), layout_, kinematics_, covariance_update_);
+  const gaussians::Image image = gaussians::render_distributed(comm_, frame, camera, options);
+  std::string error;
+  if (rank_ == 0) {
+    try {
+      gaussians::write_image_png(
+          (fs::path(out_dir) / "png" / fmt::format("frame_{:06d}.png", index)).string(), image);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
+  error = io::h5::first_error(comm_, error);
+  if (!error.empty()) throw RuntimeError(error);
 }
 
 void MpmSimulation::take_snapshot() {
@@ -204,6 +328,9 @@ MpmRunResult MpmSimulation::run(const std::string& out_dir, bool append) {
       fs::create_directories(fs::path(out_dir) / "particles", ec);
     if (!ec && cfg_.output.volumes == "vdb")
       fs::create_directories(fs::path(out_dir) / "volumes", ec);
+    if (!ec && cfg_.output.particles == "ply" && carries_splats_)
+      fs::create_directories(fs::path(out_dir) / "splats", ec);
+    if (!ec && cfg_.render.enabled) fs::create_directories(fs::path(out_dir) / "png", ec);
     if (ec) error = out_dir + ": cannot create the output directory: " + ec.message();
   }
   error = io::h5::first_error(comm_, error);
@@ -234,6 +361,10 @@ MpmRunResult MpmSimulation::run(const std::string& out_dir, bool append) {
     const bool reaches = dt >= (target - time_) * (1 - 1e-12);
     try {
       solver_->substep(time_, dt);
+      if (carries_splats_) {
+        PhaseTimers::Scope scope(solver_->timers(), "splats");
+        advance_splats(solver_->particles(), layout_, dt, covariance_update_);
+      }
     } catch (const InstabilityError& e) {
       const std::string path = write_checkpoint(out_dir, &snapshot_);
       writer.close();
@@ -282,6 +413,22 @@ MpmRunResult MpmSimulation::run(const std::string& out_dir, bool append) {
   }
   if (res.exit_code == 0) res.last_checkpoint = write_checkpoint(out_dir);
   writer.close();
+  if (res.exit_code == 0 && cfg_.render.enabled && cfg_.render.mp4) {
+    // Real-time playback where the frame interval allows it, within 1 to 60 frames per second.
+    const double fps = std::clamp(1.0 / interval, 1.0, 60.0);
+    std::string error;
+    if (rank_ == 0) {
+      try {
+        const std::string mp4 = gaussians::assemble_mp4(
+            (fs::path(out_dir) / "png").string(), fps, (fs::path(out_dir) / "render.mp4").string());
+        if (!mp4.empty()) log::info("render: {}", mp4);
+      } catch (const std::exception& e) {
+        error = e.what();
+      }
+    }
+    error = io::h5::first_error(comm_, error);
+    if (!error.empty()) throw RuntimeError(error);
+  }
   res.substeps = substeps;
   res.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -293,7 +440,10 @@ MpmRunResult MpmSimulation::run(const std::string& out_dir, bool append) {
 }
 
 void MpmSimulation::report_timers(double wall, long substeps) const {
-  const char* phases[] = {"material", "p2g", "halo", "grid", "g2p", "guard", "migration"};
+  std::vector<const char*> phases = {"material", "p2g",   "halo",     "grid",
+                                     "g2p",      "guard", "migration"};
+  if (carries_splats_) phases.push_back("splats");
+  if (cfg_.render.enabled) phases.push_back("render");
   double n = static_cast<double>(solver_->count()) * static_cast<double>(substeps);
   log::info("phase timers (max over ranks, wall {:.2f} s, {:.3g} particle-substeps/s):", wall,
             n / std::max(wall, 1e-9));

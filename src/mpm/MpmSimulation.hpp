@@ -2,6 +2,13 @@
 //! the substep loop with progress lines, particle frames (HDF5 + XDMF, optional PLY and VDB
 //! per frame), checkpoints (periodic, final, on SIGTERM/SIGUSR1, and of the last good frame
 //! when the instability guard stops the run) and restart at any rank count.
+//!
+//! Splats: `[[geometry]] type = "splats"` parts become one particle per Gaussian (the other
+//! parts are lattice-seeded as before). When the deck has splats or a [render] table, every
+//! particle carries splat attributes (mpm/SplatParticles.hpp; lattice particles get isotropic
+//! splats of their part's colour), which follow the flow every substep; [render] draws them to
+//! OUT/png/frame_NNNNNN.png per output frame (optionally OUT/render.mp4), and output.particles
+//! = "ply" also writes the deformed splats as 3DGS PLYs, OUT/splats/splats_NNNNNN.ply.
 #pragma once
 
 #include <mpi.h>
@@ -11,8 +18,11 @@
 
 #include "core/Config.hpp"
 #include "geometry/Shape.hpp"
+#include "gaussians/Camera.hpp"
+#include "gaussians/Kinematics.hpp"
 #include "mpm/ParticleIO.hpp"
 #include "mpm/Solver.hpp"
+#include "mpm/SplatParticles.hpp"
 
 namespace gen4d::mpm {
 
@@ -44,6 +54,9 @@ class MpmSimulation {
   long substep_index() const { return step_; }
   double time() const { return time_; }
   std::int64_t total_particles() const { return total_; }
+  //! Whether the particles carry splat attributes, and their layout.
+  bool carries_splats() const { return carries_splats_; }
+  const SplatLayout& splat_layout() const { return layout_; }
 
  private:
   struct Snapshot {
@@ -56,6 +69,8 @@ class MpmSimulation {
   double frame_interval() const;
   std::string write_checkpoint(const std::string& out_dir, const Snapshot* from = nullptr);
   void write_frame(ParticleFrameWriter& writer, const std::string& out_dir);
+  //! The [render] image of frame `index` (collective; rank 0 writes it).
+  void render_frame(int index, const std::string& out_dir);
   void take_snapshot();
   void report_timers(double wall, long substeps) const;
 
@@ -71,6 +86,11 @@ class MpmSimulation {
   double next_frame_time_ = 0;
   Snapshot snapshot_;
   double io_seconds_ = 0;
+  bool carries_splats_ = false;
+  SplatLayout layout_;
+  CovarianceUpdate covariance_update_ = CovarianceUpdate::DeformationGradient;
+  gaussians::KinematicsOptions kinematics_;
+  gaussians::Camera fixed_camera_;  //!< [render] camera from a cameras.json
 };
 
 }  // namespace gen4d::mpm

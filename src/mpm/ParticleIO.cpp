@@ -24,6 +24,7 @@
 #include "io/FrameLayout.hpp"
 #include "io/PngPreview.hpp"
 #include "io/Xdmf.hpp"
+#include "parallel/Distribute.hpp"
 
 namespace gen4d::mpm {
 namespace fs = std::filesystem;
@@ -63,68 +64,30 @@ std::string broadcast_string(MPI_Comm comm, std::string text, int root) {
 
 //! Why the arrays of `p` disagree in length; "" when they are consistent.
 std::string inconsistent(const Particles& p) {
-  const std::size_t n = p.size();
-  if (p.x.size() != 3 * n || p.v.size() != 3 * n || p.C.size() != 9 * n || p.F.size() != 9 * n ||
-      p.state.size() != kStateSize * n || p.mass.size() != n || p.vol0.size() != n ||
-      p.flag.size() != n) {
-    return "the particle arrays disagree in length";
-  }
-  return "";
+  return p.inconsistency();
 }
 
 // ---- rows exchanged between ranks: `width` doubles, column 0 the particle id ----------------
 
-//! Sends row i of `rows` to rank owner[i] (collective); returns the rows this rank received,
-//! sorted by id (ties keep source-rank order).
-std::vector<double> exchange_rows(MPI_Comm comm, int width, const std::vector<double>& rows,
+//! Sends row i of `rows` to rank owner[i] (collective, parallel::RowExchange); returns the rows
+//! this rank holds afterwards, sorted by id (ties keep the exchange's order).
+std::vector<double> exchange_rows(MPI_Comm comm, int width, std::vector<double> rows,
                                   const std::vector<int>& owner, const std::string& where) {
-  const int size = comm_size(comm);
-  const std::size_t n = owner.size();
-  const long long limit = INT_MAX / width;  // MPI counts and displacements are ints
-  std::vector<long long> count(size, 0);
-  for (int r : owner) ++count[r];
-  std::vector<int> send_rows(size), recv_rows(size);
-  for (int r = 0; r < size; ++r) send_rows[r] = static_cast<int>(std::min(count[r], limit));
-  MPI_Alltoall(send_rows.data(), 1, MPI_INT, recv_rows.data(), 1, MPI_INT, comm);
-  long long received = 0;
-  for (int r : recv_rows) received += r;
-  std::string error;
-  if (static_cast<long long>(n) > limit || received > limit) {
-    error = where + fmt::format("more than {} particles in one MPI message (rank {})", limit,
-                                comm_rank(comm));
+  parallel::RowExchange ex;
+  ex.add(rows, width);
+  try {
+    ex.exchange(comm, owner);
+  } catch (const RuntimeError& e) {
+    throw RuntimeError(where + e.what());
   }
-  throw_if_any<RuntimeError>(comm, error);
-
-  std::vector<int> scount(size), rcount(size), sdispl(size, 0), rdispl(size, 0);
-  for (int r = 0; r < size; ++r) {
-    scount[r] = send_rows[r] * width;
-    rcount[r] = recv_rows[r] * width;
-    if (r > 0) {
-      sdispl[r] = sdispl[r - 1] + scount[r - 1];
-      rdispl[r] = rdispl[r - 1] + rcount[r - 1];
-    }
-  }
-  std::vector<double> sendbuf(n * width), recvbuf(static_cast<std::size_t>(received) * width);
-  std::vector<int> cursor = sdispl;
-  for (std::size_t i = 0; i < n; ++i) {
-    std::copy_n(&rows[i * width], width, &sendbuf[static_cast<std::size_t>(cursor[owner[i]])]);
-    cursor[owner[i]] += width;
-  }
-  // Some MPI builds reject null buffers even for zero counts.
-  double nothing = 0;
-  MPI_Alltoallv(sendbuf.empty() ? &nothing : sendbuf.data(), scount.data(), sdispl.data(),
-                MPI_DOUBLE, recvbuf.empty() ? &nothing : recvbuf.data(), rcount.data(),
-                rdispl.data(), MPI_DOUBLE, comm);
-
-  const std::size_t m = static_cast<std::size_t>(received);
+  const std::size_t m = rows.size() / width;
   std::vector<std::size_t> order(m);
   std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    return recvbuf[a * width] < recvbuf[b * width];
-  });
-  std::vector<double> sorted(recvbuf.size());
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return rows[a * width] < rows[b * width]; });
+  std::vector<double> sorted(rows.size());
   for (std::size_t k = 0; k < m; ++k)
-    std::copy_n(&recvbuf[order[k] * width], width, &sorted[k * width]);
+    std::copy_n(&rows[order[k] * width], width, &sorted[k * width]);
   return sorted;
 }
 
@@ -230,8 +193,9 @@ const Column kCheckpointColumns[] = {{"position", 1, 3, false},
                                      {"volume0", 26 + kStateSize, 1, false},
                                      {"flag", 27 + kStateSize, 1, true}};
 
+//! The extra values of a row follow the kCheckpointRow fixed ones.
 std::vector<double> checkpoint_rows(const Particles& p) {
-  constexpr int W = kCheckpointRow;
+  const int W = kCheckpointRow + p.extra_width;
   std::vector<double> rows(p.size() * W);
   for (std::size_t i = 0; i < p.size(); ++i) {
     double* r = &rows[i * W];
@@ -244,6 +208,7 @@ std::vector<double> checkpoint_rows(const Particles& p) {
     r[25 + kStateSize] = p.mass[i];
     r[26 + kStateSize] = p.vol0[i];
     r[27 + kStateSize] = p.flag[i];
+    std::copy_n(p.extra.data() + i * p.extra_width, p.extra_width, r + kCheckpointRow);
   }
   return rows;
 }
@@ -259,6 +224,7 @@ void write_checkpoint_contents(hid_t file, const ParticleCheckpointState& s,
   h5::write_attr(file, "particle_count", static_cast<long>(s.total_particles));
   h5::write_attr(file, "deck", s.deck_text);
   h5::write_string_list_attr(file, "state_names", s.state_names);
+  if (!s.extra_names.empty()) h5::write_string_list_attr(file, "extra_names", s.extra_names);
   h5::Handle extras = h5::create_group(file, "/extras");
   for (const auto& [name, value] : s.extras) h5::write_attr(extras.get(), name, value);
   const auto rows = static_cast<hsize_t>(s.total_particles);
@@ -277,6 +243,18 @@ void write_checkpoint_contents(hid_t file, const ParticleCheckpointState& s,
   }
   h5::Handle alive = h5::create_rows_dataset(file, "alive", H5T_STD_U8LE, rows, 1);
   h5::write_rows(alive.get(), H5T_NATIVE_UINT8, begin, count, 1, dense.alive.data());
+  const int extra = static_cast<int>(s.extra_names.size());
+  if (extra > 0) {
+    const std::vector<double> values = column(dense, kCheckpointRow, extra);
+    h5::Handle dataset = h5::create_rows_dataset(file, "extra", H5T_IEEE_F64LE, rows, extra);
+    h5::write_rows(dataset.get(), H5T_NATIVE_DOUBLE, begin, count, extra, values.data());
+  }
+}
+
+//! The names of the extra columns (none in a file without the attribute).
+std::vector<std::string> read_extra_names(hid_t file, const std::string& path) {
+  if (!h5::has_attr(file, "extra_names")) return {};
+  return h5::read_string_list_attr(file, "extra_names", path);
 }
 
 //! Checks the format attributes and every dataset's shape and type; returns N.
@@ -305,6 +283,9 @@ std::int64_t check_checkpoint_layout(hid_t file, const std::string& path) {
                           c.width, path);
   }
   h5::open_rows_dataset(file, "/alive", H5T_INTEGER, rows, 1, path);
+  const std::size_t extra = read_extra_names(file, path).size();
+  if (extra > 0)
+    h5::open_rows_dataset(file, "/extra", H5T_FLOAT, rows, static_cast<hsize_t>(extra), path);
   return total;
 }
 
@@ -322,6 +303,7 @@ ParticleCheckpointMeta read_meta_serial(const std::string& path) {
     throw InputError(path + fmt::format(": {} state_names, at most {} are supported",
                                         meta.state_names.size(), kStateSize));
   }
+  meta.extra_names = read_extra_names(file.get(), path);
   h5::Handle extras = h5::open_group(file.get(), "/extras", h5::Failure::Input, path);
   for (const std::string& name : h5::attr_names(extras.get())) {
     meta.extras[name] = h5::read_double_attr(extras.get(), name, path + " /extras");
@@ -343,6 +325,8 @@ std::string pack(const ParticleCheckpointMeta& m) {
   put(buffer, m.deck_text);
   put(buffer, m.state_names.size());
   for (const std::string& name : m.state_names) put(buffer, name);
+  put(buffer, m.extra_names.size());
+  for (const std::string& name : m.extra_names) put(buffer, name);
   put(buffer, m.extras.size());
   for (const auto& [name, value] : m.extras) {
     put(buffer, name);
@@ -365,6 +349,9 @@ ParticleCheckpointMeta unpack(const std::string& buffer) {
   m.state_names.resize(count);
   for (std::string& name : m.state_names) in.get(name);
   in.get(count);
+  m.extra_names.resize(count);
+  for (std::string& name : m.extra_names) in.get(name);
+  in.get(count);
   for (std::size_t i = 0; i < count; ++i) {
     std::string name;
     double value = 0;
@@ -376,8 +363,10 @@ ParticleCheckpointMeta unpack(const std::string& buffer) {
 }
 
 //! Reads this rank's block of every dataset (collective) and keeps the alive particles, sorted
-//! by id. InputError for a non-finite value of an alive particle, after every read.
-Particles read_block(hid_t file, const std::string& path, std::int64_t total, const IdBlock& b) {
+//! by id, with `extra` extra values each. InputError for a non-finite value of an alive
+//! particle, after every read.
+Particles read_block(hid_t file, const std::string& path, std::int64_t total, const IdBlock& b,
+                     int extra) {
   const auto rows = static_cast<hsize_t>(total);
   const auto begin = static_cast<hsize_t>(b.begin);
   const auto count = static_cast<std::size_t>(b.count);
@@ -416,8 +405,22 @@ Particles read_block(hid_t file, const std::string& path, std::int64_t total, co
     for (std::size_t i = 0; i < count; ++i)
       std::copy_n(&values[i * c.width], c.width, &dense[i * kCheckpointRow + c.offset]);
   }
+  std::vector<double> extra_values(count * static_cast<std::size_t>(extra));
+  if (extra > 0) {
+    h5::Handle dataset =
+        h5::open_rows_dataset(file, "/extra", H5T_FLOAT, rows, static_cast<hsize_t>(extra), path);
+    h5::read_rows(dataset.get(), H5T_NATIVE_DOUBLE, begin, count, extra, extra_values.data(),
+                  path + ": cannot read dataset /extra");
+    for (std::size_t k = 0; k < extra_values.size() && bad_value.empty(); ++k)
+      if (alive[k / extra] && !std::isfinite(extra_values[k]))
+        bad_value = path + fmt::format(
+                               ": dataset /extra holds a non-finite value ({}) for alive "
+                               "particle id {}",
+                               extra_values[k], b.begin + static_cast<std::int64_t>(k / extra));
+  }
   if (!bad_value.empty()) throw InputError(bad_value);
   Particles p;
+  p.extra_width = extra;
   std::size_t n = 0;
   for (std::uint8_t a : alive) n += a != 0;
   p.reserve(n);
@@ -433,6 +436,8 @@ Particles read_block(hid_t file, const std::string& path, std::int64_t total, co
     p.mass.push_back(r[25 + kStateSize]);
     p.vol0.push_back(r[26 + kStateSize]);
     p.flag.push_back(static_cast<std::uint8_t>(r[27 + kStateSize]));
+    p.extra.insert(p.extra.end(), extra_values.begin() + static_cast<long>(i * extra),
+                   extra_values.begin() + static_cast<long>((i + 1) * extra));
   }
   return p;
 }
@@ -651,6 +656,9 @@ std::string write_particle_checkpoint(MPI_Comm comm, const std::string& dir,
             fmt::format(": {} state names, at most {}", state.state_names.size(), kStateSize);
   } else if (std::string why = inconsistent(*state.particles); !why.empty()) {
     error = final_path + ": " + why;
+  } else if (state.particles->extra_width != static_cast<int>(state.extra_names.size())) {
+    error = final_path + fmt::format(": {} extra names for particles with {} extra values",
+                                     state.extra_names.size(), state.particles->extra_width);
   }
   std::error_code ec;
   if (rank == 0 && error.empty() && !fs::is_directory(dir, ec) &&
@@ -658,8 +666,9 @@ std::string write_particle_checkpoint(MPI_Comm comm, const std::string& dir,
     error = dir + ": cannot create the checkpoint directory (" + ec.message() + ")";
   }
   throw_if_any<RuntimeError>(comm, error);
-  const DenseBlock dense = to_blocks(comm, state.total_particles, kCheckpointRow,
-                                     checkpoint_rows(*state.particles), final_path + ": ");
+  const DenseBlock dense =
+      to_blocks(comm, state.total_particles, kCheckpointRow + state.particles->extra_width,
+                checkpoint_rows(*state.particles), final_path + ": ");
   try {
     h5::Handle file = h5::create_file(comm, temp_path);
     write_checkpoint_contents(file.get(), state, dense);
@@ -714,7 +723,8 @@ ParticleCheckpointMeta read_particle_checkpoint(MPI_Comm comm, const std::string
   Particles read;
   try {
     const IdBlock block = id_block(meta.total_particles, comm_rank(comm), comm_size(comm));
-    read = read_block(file.get(), path, meta.total_particles, block);
+    read = read_block(file.get(), path, meta.total_particles, block,
+                      static_cast<int>(meta.extra_names.size()));
   } catch (const std::exception& e) {
     error = e.what();
   }

@@ -49,6 +49,9 @@ struct ParticleCheckpointState {
   std::string deck_text;
   std::int64_t total_particles = 0;      //!< N: ids are 0..N-1
   std::vector<std::string> state_names;  //!< at most kStateSize
+  //! Names of the particles' extra values (as many as their extra_width), stored as the
+  //! attribute extra_names with the dataset extra [N][W] (absent when W = 0).
+  std::vector<std::string> extra_names;
   std::map<std::string, double> extras;  //!< solver scalars a restart must restore
   const Particles* particles = nullptr;  //!< this rank's particles (any distribution)
 };
@@ -62,6 +65,7 @@ struct ParticleCheckpointMeta {
   std::string deck_text;
   std::int64_t total_particles = 0;
   std::vector<std::string> state_names;
+  std::vector<std::string> extra_names;  //!< empty in a checkpoint without extra values
   std::map<std::string, double> extras;
 };
 
@@ -79,10 +83,10 @@ std::string write_particle_checkpoint(MPI_Comm comm, const std::string& dir,
 //! or version, missing or misshaped dataset or attribute).
 ParticleCheckpointMeta read_particle_checkpoint_meta(MPI_Comm comm, const std::string& path);
 
-//! Both phases: the metadata and, into `particles` (replaced, sorted by id), the alive
-//! particles of this rank's id block. The caller then migrates them to their spatial owners.
-//! Any defect, also a non-finite value in an alive particle, is an InputError on every rank
-//! naming the file, and `particles` is left unchanged.
+//! Both phases: the metadata and, into `particles` (replaced, sorted by id, extra_width the
+//! number of extra_names), the alive particles of this rank's id block. The caller then migrates
+//! them to their spatial owners. Any defect, also a non-finite value in an alive particle, is an
+//! InputError on every rank naming the file, and `particles` is left unchanged.
 ParticleCheckpointMeta read_particle_checkpoint(MPI_Comm comm, const std::string& path,
                                                 Particles& particles);
 

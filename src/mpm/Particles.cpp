@@ -1,7 +1,12 @@
 #include "mpm/Particles.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <numeric>
+#include <stdexcept>
+
+#include "parallel/Distribute.hpp"
 
 namespace gen4d::mpm {
 
@@ -15,6 +20,7 @@ void Particles::clear() {
   mass.clear();
   vol0.clear();
   flag.clear();
+  extra.clear();
 }
 
 void Particles::reserve(std::size_t n) {
@@ -27,10 +33,11 @@ void Particles::reserve(std::size_t n) {
   mass.reserve(n);
   vol0.reserve(n);
   flag.reserve(n);
+  extra.reserve(static_cast<std::size_t>(extra_width) * n);
 }
 
 void Particles::push_back(std::int64_t gid, const double* pos, const double* vel, double m,
-                          double v0, const double* init_state) {
+                          double v0, const double* init_state, const double* extra_values) {
   id.push_back(gid);
   x.insert(x.end(), pos, pos + 3);
   v.insert(v.end(), vel, vel + 3);
@@ -41,6 +48,26 @@ void Particles::push_back(std::int64_t gid, const double* pos, const double* vel
   mass.push_back(m);
   vol0.push_back(v0);
   flag.push_back(0);
+  if (extra_values)
+    extra.insert(extra.end(), extra_values, extra_values + extra_width);
+  else
+    extra.insert(extra.end(), static_cast<std::size_t>(extra_width), 0.0);
+}
+
+void Particles::append(const Particles& o) {
+  if (o.extra_width != extra_width)
+    throw std::logic_error(
+        fmt::format("Particles::append: extra width {} onto {}", o.extra_width, extra_width));
+  id.insert(id.end(), o.id.begin(), o.id.end());
+  x.insert(x.end(), o.x.begin(), o.x.end());
+  v.insert(v.end(), o.v.begin(), o.v.end());
+  C.insert(C.end(), o.C.begin(), o.C.end());
+  F.insert(F.end(), o.F.begin(), o.F.end());
+  state.insert(state.end(), o.state.begin(), o.state.end());
+  mass.insert(mass.end(), o.mass.begin(), o.mass.end());
+  vol0.insert(vol0.end(), o.vol0.begin(), o.vol0.end());
+  flag.insert(flag.end(), o.flag.begin(), o.flag.end());
+  extra.insert(extra.end(), o.extra.begin(), o.extra.end());
 }
 
 void Particles::pack(std::size_t i, double* r) const {
@@ -55,16 +82,14 @@ void Particles::pack(std::size_t i, double* r) const {
   r[27 + kStateSize] = flag[i];
 }
 
-void Particles::append_packed(const double* r) {
-  id.push_back(static_cast<std::int64_t>(r[0]));
-  x.insert(x.end(), r + 1, r + 4);
-  v.insert(v.end(), r + 4, r + 7);
-  C.insert(C.end(), r + 7, r + 16);
-  F.insert(F.end(), r + 16, r + 25);
-  state.insert(state.end(), r + 25, r + 25 + kStateSize);
-  mass.push_back(r[25 + kStateSize]);
-  vol0.push_back(r[26 + kStateSize]);
-  flag.push_back(static_cast<std::uint8_t>(r[27 + kStateSize]));
+std::string Particles::inconsistency() const {
+  const std::size_t n = size();
+  if (extra_width < 0) return fmt::format("negative extra width {}", extra_width);
+  if (x.size() != 3 * n || v.size() != 3 * n || C.size() != 9 * n || F.size() != 9 * n ||
+      state.size() != kStateSize * n || mass.size() != n || vol0.size() != n || flag.size() != n ||
+      extra.size() != static_cast<std::size_t>(extra_width) * n)
+    return "the particle arrays disagree in length";
+  return "";
 }
 
 namespace {
@@ -100,6 +125,7 @@ void Particles::compact(const std::vector<std::uint8_t>& keep) {
   keep_rows(mass, 1, keep);
   keep_rows(vol0, 1, keep);
   keep_rows(flag, 1, keep);
+  keep_rows(extra, extra_width, keep);
 }
 
 void Particles::sort_by_id() {
@@ -116,53 +142,20 @@ void Particles::sort_by_id() {
   permute_rows(mass, 1, order);
   permute_rows(vol0, 1, order);
   permute_rows(flag, 1, order);
+  permute_rows(extra, extra_width, order);
 }
 
 std::size_t redistribute(MPI_Comm comm, Particles& p,
                          const std::function<int(std::size_t)>& owner) {
-  int rank = 0, size = 1;
-  MPI_Comm_rank(comm, &rank);
+  int size = 1;
   MPI_Comm_size(comm, &size);
   if (size == 1) return 0;
-  const std::size_t n = p.size();
-  std::vector<int> dest(n);
-  std::vector<int> send_count(size, 0), recv_count(size, 0);
-  std::vector<std::uint8_t> keep(n, 1);
-  std::size_t sent = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    dest[i] = owner(i);
-    if (dest[i] != rank) {
-      keep[i] = 0;
-      ++send_count[dest[i]];
-      ++sent;
-    }
-  }
-  MPI_Alltoall(send_count.data(), 1, MPI_INT, recv_count.data(), 1, MPI_INT, comm);
-  constexpr int R = Particles::kRecord;
-  std::vector<int> sdispl(size, 0), rdispl(size, 0), scount(size), rcount(size);
-  for (int r = 0; r < size; ++r) {
-    scount[r] = send_count[r] * R;
-    rcount[r] = recv_count[r] * R;
-    if (r > 0) {
-      sdispl[r] = sdispl[r - 1] + scount[r - 1];
-      rdispl[r] = rdispl[r - 1] + rcount[r - 1];
-    }
-  }
-  std::vector<double> sendbuf(static_cast<std::size_t>(sdispl[size - 1] + scount[size - 1]));
-  std::vector<double> recvbuf(static_cast<std::size_t>(rdispl[size - 1] + rcount[size - 1]));
-  std::vector<int> cursor = sdispl;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (keep[i]) continue;
-    p.pack(i, &sendbuf[static_cast<std::size_t>(cursor[dest[i]])]);
-    cursor[dest[i]] += R;
-  }
-  MPI_Alltoallv(sendbuf.data(), scount.data(), sdispl.data(), MPI_DOUBLE, recvbuf.data(),
-                rcount.data(), rdispl.data(), MPI_DOUBLE, comm);
-  p.compact(keep);
-  const std::size_t received = recvbuf.size() / R;
-  p.reserve(p.size() + received);
-  for (std::size_t k = 0; k < received; ++k) p.append_packed(&recvbuf[k * R]);
-  return sent;
+  std::vector<int> dest(p.size());
+  for (std::size_t i = 0; i < dest.size(); ++i) dest[i] = owner(i);
+  parallel::RowExchange ex;
+  ex.add(p.id, 1).add(p.x, 3).add(p.v, 3).add(p.C, 9).add(p.F, 9).add(p.state, kStateSize);
+  ex.add(p.mass, 1).add(p.vol0, 1).add(p.flag, 1).add(p.extra, p.extra_width);
+  return ex.exchange(comm, dest);
 }
 
 }  // namespace gen4d::mpm

@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <string>
 #include <vector>
 
 #include "mpm/Material.hpp"
@@ -23,27 +24,40 @@ struct Particles {
   std::vector<double> mass;        //!< kg
   std::vector<double> vol0;        //!< rest volume, m^3
   std::vector<std::uint8_t> flag;  //!< bit 0: frozen (not yet released); bit 1: kinematic
+  //! extra_width doubles per particle carried with it through migration, checkpoints and
+  //! restart, whose meaning the run defines (the splat attributes of mpm/SplatParticles.hpp);
+  //! empty when extra_width is 0.
+  std::vector<double> extra;
+  int extra_width = 0;
 
-  //! Doubles per particle in a packed record (id stored as a double, exact below 2^53).
+  //! Doubles per particle in a packed record of the solver's attributes (id stored as a
+  //! double, exact below 2^53; `extra` is not part of it).
   static constexpr int kRecord = 1 + 3 + 3 + 9 + 9 + kStateSize + 2 + 1;
 
   std::size_t size() const { return id.size(); }
   void clear();
   void reserve(std::size_t n);
-  //! Appends one particle at rest state (C = 0, F = I, state from init).
+  //! Appends one particle at rest state (C = 0, F = I, state from init) with extra_width
+  //! values from `extra_values` (zeros when null).
   void push_back(std::int64_t gid, const double* pos, const double* vel, double m, double v0,
-                 const double* init_state);
+                 const double* init_state, const double* extra_values = nullptr);
+  //! Appends every particle of `other`, whose extra_width must equal this one's
+  //! (std::logic_error otherwise).
+  void append(const Particles& other);
+  //! The kRecord values of particle i.
   void pack(std::size_t i, double* rec) const;
-  void append_packed(const double* rec);
+  //! Why the arrays disagree in length with size() and extra_width; "" when consistent.
+  std::string inconsistency() const;
   //! Keeps particles with keep[i] != 0, in order.
   void compact(const std::vector<std::uint8_t>& keep);
   //! Reorders by increasing id.
   void sort_by_id();
 };
 
-//! Sends every particle i to rank owner(i) (all-to-all); afterwards each rank holds the
-//! particles it owns, received ones appended after the kept ones in source-rank order.
-//! Collective. Returns the number of particles this rank sent away.
+//! Sends every particle i, every attribute and `extra` included, to rank owner(i)
+//! (parallel::RowExchange); afterwards each rank holds the particles it owns, received ones
+//! appended after the kept ones in source-rank order. Collective. Returns the number of
+//! particles this rank sent away.
 std::size_t redistribute(MPI_Comm comm, Particles& p, const std::function<int(std::size_t)>& owner);
 
 }  // namespace gen4d::mpm

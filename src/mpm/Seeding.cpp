@@ -1,7 +1,12 @@
 #include "mpm/Seeding.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
+#include <unordered_map>
+
+#include "mpm/SplatParticles.hpp"
 
 namespace gen4d::mpm {
 
@@ -42,6 +47,55 @@ Particles seed_particles(MPI_Comm comm, const GridSpec& grid, const geometry::Sh
   MPI_Exscan(&count, &offset, 1, MPI_INT64_T, MPI_SUM, comm);
   if (rank == 0) offset = 0;
   for (auto& id : p.id) id += offset;
+  return p;
+}
+
+Particles seed_splats(MPI_Comm comm, const GridSpec& grid, const gaussians::SplatSet& splats,
+                      const Material& material, const Vec3d& velocity, std::int64_t first_id,
+                      int sh_degree, const std::string& where) {
+  int rank = 0, size = 1;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  splats.check_sizes();
+  const std::size_t n = splats.size();
+  // Splats per grid cell, over the whole set (every rank holds it).
+  std::vector<std::int64_t> cell(n);
+  std::string error;
+  for (std::size_t i = 0; i < n && error.empty(); ++i) {
+    long c[3] = {0, 0, 0};
+    for (int a = 0; a < 3; ++a) {
+      const double X = std::floor((splats.position[3 * i + a] - grid.lo[a]) / grid.dx);
+      if (!(X >= 0 && X < static_cast<double>(grid.cells[a]))) {
+        error = fmt::format("{}: splat {} at ({:.6g}, {:.6g}, {:.6g}) lies outside the MPM grid",
+                            where, i, splats.position[3 * i], splats.position[3 * i + 1],
+                            splats.position[3 * i + 2]);
+        break;
+      }
+      c[a] = static_cast<long>(X);
+    }
+    cell[i] = (static_cast<std::int64_t>(c[2]) * grid.cells[1] + c[1]) * grid.cells[0] + c[0];
+  }
+  // Every rank checks the same set: the error is the same everywhere.
+  if (!error.empty()) throw InputError(error);
+  std::unordered_map<std::int64_t, int> per_cell;
+  per_cell.reserve(n);
+  for (std::int64_t c : cell) ++per_cell[c];
+  const SplatLayout layout{std::max(splats.sh_degree, sh_degree)};
+  const double cell_volume = grid.dx * grid.dx * grid.dx;
+  double init[kStateSize];
+  material.init_state(init);
+  Particles p;
+  p.extra_width = layout.width();
+  const std::size_t i0 = n * static_cast<std::size_t>(rank) / static_cast<std::size_t>(size);
+  const std::size_t i1 = n * static_cast<std::size_t>(rank + 1) / static_cast<std::size_t>(size);
+  p.reserve(i1 - i0);
+  std::vector<double> values(static_cast<std::size_t>(layout.width()));
+  for (std::size_t i = i0; i < i1; ++i) {
+    const double vol = cell_volume / per_cell[cell[i]];
+    splat_rest_values(splats, i, layout, values.data());
+    p.push_back(first_id + static_cast<std::int64_t>(i), &splats.position[3 * i], velocity.data(),
+                material.density() * vol, vol, init, values.data());
+  }
   return p;
 }
 
