@@ -19,3 +19,12 @@ if(TARGET gen4d)
   set_tests_properties(cli_mpm PROPERTIES ENVIRONMENT "${GEN4D_TEST_ENV}" PROCESSORS 2
                        TIMEOUT 600)
 endif()
+
+# The main job (the trained donut as MPM jelly, rendered) at 1, 2 and 4 ranks: identical images.
+if(TARGET gen4d)
+  add_test(NAME cli_splats
+           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/cli_splats.sh $<TARGET_FILE:gen4d>
+                   ${MPIEXEC_EXECUTABLE} ${CMAKE_CURRENT_BINARY_DIR}/scratch/cli_splats)
+  set_tests_properties(cli_splats PROPERTIES ENVIRONMENT "${GEN4D_TEST_ENV}" PROCESSORS 2
+                       TIMEOUT 600)
+endif()

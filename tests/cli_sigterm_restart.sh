@@ -3,10 +3,11 @@
 # uninterrupted run (within 1e-12 relative: different rank counts at the restart).
 set -u
 gen4d="$1"; mpiexec="$2"; dir="$3"
+board="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/inputs/jelly_board.toml"  # an ElastoGen scene
 rm -rf "$dir"; mkdir -p "$dir"
 sets=(--set simulation.end_time=1.0 --set output.frame_interval=0.1 --set output.progress_interval=0.5)
-"$mpiexec" -n 2 "$gen4d" run --out "$dir/full" "${sets[@]}" > "$dir/full.log" 2>&1 || { echo "FAIL full run"; exit 1; }
-"$mpiexec" -n 2 "$gen4d" run --out "$dir/cut" "${sets[@]}" > "$dir/cut.log" 2>&1 &
+"$mpiexec" -n 2 "$gen4d" run "$board" --out "$dir/full" "${sets[@]}" > "$dir/full.log" 2>&1 || { echo "FAIL full run"; exit 1; }
+"$mpiexec" -n 2 "$gen4d" run "$board" --out "$dir/cut" "${sets[@]}" > "$dir/cut.log" 2>&1 &
 pid=$!
 # Wait until a few steps have run, then send the batch system's warning signal.
 for _ in $(seq 1 600); do grep -q "step  *[1-9][0-9]*/" "$dir/cut.log" 2>/dev/null && break; sleep 0.1; done

@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
-# Surface sequence end to end: the default scene at 2 ranks writes surface/surface_*.ply next to
+# Surface sequence end to end: the jelly board at 2 ranks writes surface/surface_*.ply next to
 # frames.h5, `gen4d preview` renders them (and still renders voxels from frames.h5), --mp4
 # without ffmpeg is a note, and bad surface input is exit 2 with nothing written.
 set -u
 gen4d="$1"; mpiexec="$2"; dir="$3"
+board="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/inputs/jelly_board.toml"  # an ElastoGen scene
 rm -rf "$dir"; mkdir -p "$dir"
 fail() { echo "FAIL $*"; exit 1; }
 sets=(--set simulation.end_time=0.04 --set output.frame_interval=0.02
       --set output.progress_interval=100 --set output.surface=ply)
-"$mpiexec" -n 2 "$gen4d" run --out "$dir/run" "${sets[@]}" > "$dir/run.log" 2>&1 ||
+"$mpiexec" -n 2 "$gen4d" run "$board" --out "$dir/run" "${sets[@]}" > "$dir/run.log" 2>&1 ||
   { cat "$dir/run.log"; fail "run"; }
 for f in 0 1 2; do
   [[ -s "$dir/run/surface/surface_00000$f.ply" ]] || fail "no surface file for frame $f"
@@ -32,10 +33,10 @@ else
 fi
 [[ -s "$dir/mp4/surface_000002.png" ]] || fail "--mp4 did not render every frame"
 
-err=$("$gen4d" run --out "$dir/bad" --set output.surface=stl 2>&1 >/dev/null); code=$?
+err=$("$gen4d" run "$board" --out "$dir/bad" --set output.surface=stl 2>&1 >/dev/null); code=$?
 [[ $code -eq 2 && "$err" == *"output.surface"* && ! -e "$dir/bad" ]] ||
   fail "bad output.surface: exit $code, $err"
-err=$("$gen4d" run --out "$dir/bad" --set output.surface_source=mesh 2>&1 >/dev/null); code=$?
+err=$("$gen4d" run "$board" --out "$dir/bad" --set output.surface_source=mesh 2>&1 >/dev/null); code=$?
 [[ $code -eq 2 && "$err" == *"surface_source"* && ! -e "$dir/bad" ]] ||
   fail "surface_source = mesh on a box: exit $code, $err"
 mkdir -p "$dir/nosurface" && cp "$dir/run/frames.h5" "$dir/nosurface/"

@@ -12,5 +12,5 @@ for ((i = 0; i < ${#args[@]}; i++)); do
   if [[ "${args[$i]}" == "--out" || "${args[$i]}" == "-o" ]]; then out="${args[$((i + 1))]}"; fi
 done
 mpirun -np 2 "$GEN4D_BUILD/drivers/gen4d" run --out "$out" --overwrite "$@"
-"$GEN4D_BUILD/drivers/gen4d" preview "$out/frames.h5" --out "$out/png" --frames 0,25,50,-1
-echo "Open $out/frames.xdmf in ParaView; surface sequence (PLY) in $out/surface; PNG previews in $out/png"
+echo "Rendered frames in $out/png (video $out/render.mp4 where ffmpeg is installed);" \
+  "particles in $out/particles.xdmf for ParaView"

@@ -59,24 +59,6 @@ std::unique_ptr<geometry::Shape> make_part(const GeometryConfig& g, std::size_t 
   }
 }
 
-//! PNG of frame `index` under the render folder.
-std::string png_name(long index) {
-  return fmt::format("frame_{:06d}.png", index);
-}
-
-//! Index of a "frame_NNNNNN.png" name, else -1.
-long png_index(const std::string& name) {
-  const std::string head = "frame_", tail = ".png";
-  if (name.size() <= head.size() + tail.size() || name.rfind(head, 0) != 0 ||
-      name.compare(name.size() - tail.size(), tail.size(), tail) != 0)
-    return -1;
-  const std::string digits = name.substr(head.size(), name.size() - head.size() - tail.size());
-  if (digits.size() > 12 || !std::all_of(digits.begin(), digits.end(),
-                                         [](unsigned char c) { return std::isdigit(c) != 0; }))
-    return -1;
-  return std::stol(digits);
-}
-
 }  // namespace
 
 DomainLayout layout_domain(const Config& cfg, const geometry::Shape& shape) {
@@ -134,12 +116,13 @@ DeckObject build_deck_object(const Config& cfg) {
   for (std::size_t i = 0; i < n; ++i) {
     const GeometryConfig& g = cfg.geometry[i];
     if (g.type == "splats") {
-      append_splats(obj.splats, loaded[i]);
+      gaussians::append_splats(obj.splats, loaded[i]);
       parts[i] =
           std::make_unique<gaussians::SplatOccupancy>(loaded[i], cfg.voxel_size, obj.layout.origin);
       loaded[i] = gaussians::SplatSet();  // the occupancy keeps its own cells
     } else {
-      append_splats(obj.splats, gaussians::splats_from_shape(*parts[i], spacing, g.color));
+      gaussians::append_splats(obj.splats,
+                               gaussians::splats_from_shape(*parts[i], spacing, g.color));
     }
   }
   if (parts.size() == 1)
@@ -154,7 +137,7 @@ Simulation::Simulation(MPI_Comm comm, const Config& cfg) : comm_(comm), cfg_(cfg
   MPI_Comm_size(comm, &size_);
   if (cfg_.render.enabled) {  // bad render settings fail before the set-up's work
     kinematics_ = gaussians::KinematicsOptions::parse(cfg_.render.kinematics, "render.kinematics");
-    if (cfg_.render.camera != "orbit") camera_ = gaussians::read_camera_spec(cfg_.render.camera);
+    renderer_ = std::make_unique<gaussians::RunRenderer>(comm_, cfg_.render);
   }
   DeckObject object = [&] {
     PhaseTimers::Scope t(timers_, "voxelize");
@@ -181,7 +164,8 @@ Simulation::Simulation(MPI_Comm comm, const Config& cfg) : comm_(comm), cfg_(cfg
   if (sys_->global_solid_cells() == 0)
     throw InputError(cfg_.source + ": [[geometry]] produces no solid voxel at voxel_size " +
                      fmt::format("{:g}", cfg_.voxel_size) + " m; use a smaller voxel_size");
-  if (sys_->global_free_nodes() == 0)
+  // Every node prescribed is a valid (rigid-body) scene only when some of them move.
+  if (sys_->global_free_nodes() == 0 && cfg_.kinematic.empty())
     throw InputError(cfg_.source + ": [[fixed]] regions hold every node; nothing can move");
   {
     PhaseTimers::Scope t(timers_, "setup");
@@ -333,7 +317,7 @@ void Simulation::write_frame(io::FrameWriter& writer) {
                        v.data());
     if (surface_) write_surface(writer.frames().back().index);
   }
-  if (cfg_.render.enabled) render_frame(writer.frames().back().index);
+  if (renderer_) render_frame(writer.frames().back().index);
   ++frame_index_;
   next_frame_time_ = time_ + cfg_.output.frame_interval;
 }
@@ -375,74 +359,21 @@ void Simulation::write_surface(long index) {
   surface_write_seconds_ += MPI_Wtime() - gathered;
 }
 
-void Simulation::open_render(const std::string& out_dir, const io::FrameWriter& writer) {
-  if (!cfg_.render.enabled) return;
-  PhaseTimers::Scope t(timers_, "render");
-  png_dir_ = (std::filesystem::path(out_dir) / "png").string();
-  // Images later than the last frame kept belong to a run that frames.h5 no longer holds.
-  const long keep = writer.frames().empty() ? -1 : writer.frames().back().index;
-  on_rank0(comm_, rank_, png_dir_ + ": cannot prepare", [&] {
-    namespace fs = std::filesystem;
-    std::error_code ec;
-    fs::create_directories(png_dir_, ec);
-    if (ec) throw RuntimeError(png_dir_ + ": cannot create directory: " + ec.message());
-    std::vector<fs::path> doomed;
-    for (const auto& entry : fs::directory_iterator(png_dir_, ec))
-      if (png_index(entry.path().filename().string()) > keep) doomed.push_back(entry.path());
-    if (ec) throw RuntimeError(png_dir_ + ": cannot list: " + ec.message());
-    for (const auto& p : doomed)
-      if (!fs::remove(p, ec) && ec)
-        throw RuntimeError(p.string() + ": cannot remove: " + ec.message());
-  });
-}
-
 void Simulation::render_frame(long index) {
   PhaseTimers::Scope t(timers_, "render");
-  const RenderConfig& r = cfg_.render;
-  gaussians::Camera camera = camera_;
-  if (r.camera == "orbit") {
-    gaussians::OrbitCamera orbit;
-    orbit.center = r.center;
-    orbit.up = r.up;
-    orbit.azimuth = r.azimuth;
-    orbit.elevation = r.elevation;
-    orbit.radius = r.radius;
-    orbit.d_azimuth = r.d_azimuth;
-    orbit.d_elevation = r.d_elevation;
-    orbit.d_radius = r.d_radius;
-    orbit.fov_y_degrees = r.fov_y;
-    orbit.width = r.width;
-    orbit.height = r.height;
-    camera = orbit.at_frame(index);
-  }
-  gaussians::RenderOptions options;
-  for (int c = 0; c < 3; ++c) options.background[c] = static_cast<float>(r.background[c]);
   // Ghost positions are current after every step, reset and restart.
-  const gaussians::SplatFrame local = splats_->frame(dyn_->x().data(), kinematics_);
-  const gaussians::Image image = gaussians::render_distributed(comm_, local, camera, options);
-  on_rank0(comm_, rank_, png_dir_ + ": render write failed", [&] {
-    gaussians::write_image_png((std::filesystem::path(png_dir_) / png_name(index)).string(), image);
-  });
-  ++png_files_;
-}
-
-void Simulation::assemble_video(const std::string& out_dir) {
-  if (!cfg_.render.enabled || !cfg_.render.mp4 || png_files_ == 0) return;
-  PhaseTimers::Scope t(timers_, "render");
-  // Real time where it is a sensible frame rate, else the nearest bound of [1, 60] fps.
-  const double interval = cfg_.output.frame_interval > 0 ? cfg_.output.frame_interval : cfg_.dt;
-  const double fps = std::clamp(1.0 / interval, 1.0, 60.0);
-  const std::string mp4 = (std::filesystem::path(out_dir) / "render.mp4").string();
-  // assemble_mp4 notes itself what it wrote, or that ffmpeg is missing.
-  on_rank0(comm_, rank_, mp4 + ": video assembly failed",
-           [&] { gaussians::assemble_mp4(png_dir_, fps, mp4); });
+  renderer_->render(index, splats_->frame(dyn_->x().data(), kinematics_));
 }
 
 RunResult Simulation::run(const std::string& out_dir, bool append) {
   RunResult res;
   auto writer = open_frames(out_dir, append);
   open_surface(out_dir, *writer);
-  open_render(out_dir, *writer);
+  if (renderer_) {
+    PhaseTimers::Scope t(timers_, "render");
+    // Images later than the last frame kept belong to a run that frames.h5 no longer holds.
+    renderer_->open(out_dir, writer->frames().empty() ? -1 : writer->frames().back().index);
+  }
   const double dt = cfg_.dt;
   const long total_steps = static_cast<long>(std::ceil(cfg_.end_time / dt - 1e-9));
   if (!append && step_ == 0) write_frame(*writer);
@@ -486,10 +417,14 @@ RunResult Simulation::run(const std::string& out_dir, bool append) {
         surface_files_, surface_dir_, surface_bytes_ / 1e6,
         1e3 * surface_gather_seconds_ / static_cast<double>(surface_files_),
         1e3 * surface_write_seconds_ / static_cast<double>(surface_files_));
-  if (png_files_ > 0)
+  if (renderer_ && renderer_->images() > 0)
     log::info("render: {} image(s) in {}; {:.2f} s per frame (splat kinematics + render + write)",
-              png_files_, png_dir_, timers_.total("render") / static_cast<double>(png_files_));
-  if (res.exit_code == 0) assemble_video(out_dir);
+              renderer_->images(), renderer_->png_dir(),
+              timers_.total("render") / static_cast<double>(renderer_->images()));
+  if (renderer_ && res.exit_code == 0) {
+    PhaseTimers::Scope t(timers_, "render");
+    renderer_->finish(cfg_.output.frame_interval > 0 ? cfg_.output.frame_interval : cfg_.dt);
+  }
   report_timers(res.wall_seconds, res.steps);
   return res;
 }

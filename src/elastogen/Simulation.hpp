@@ -14,7 +14,7 @@
 #include "elastogen/Elastodynamics.hpp"
 #include "elastogen/SplatEmbedding.hpp"
 #include "elastogen/SurfaceEmbedding.hpp"
-#include "gaussians/Camera.hpp"
+#include "gaussians/RunRender.hpp"
 #include "gaussians/Kinematics.hpp"
 #include "geometry/Shape.hpp"
 #include "io/FrameWriter.hpp"
@@ -96,12 +96,8 @@ class Simulation {
   void open_surface(const std::string& out_dir, const io::FrameWriter& writer);
   //! Writes the surface of frame `index` (rank 0 writes; every rank evaluates). Collective.
   void write_surface(long index);
-  //! Creates out_dir/png and removes images later than the frames kept. Collective.
-  void open_render(const std::string& out_dir, const io::FrameWriter& writer);
   //! Renders the splats of frame `index` to png/frame_NNNNNN.png (rank 0 writes). Collective.
   void render_frame(long index);
-  //! Assembles png/ into out_dir/render.mp4 when render.mp4 asks for it (rank 0).
-  void assemble_video(const std::string& out_dir);
   void report_timers(double wall, long steps) const;
 
   MPI_Comm comm_;
@@ -124,9 +120,7 @@ class Simulation {
   double surface_gather_seconds_ = 0, surface_write_seconds_ = 0, surface_bytes_ = 0;
   std::unique_ptr<SplatEmbedding> splats_;
   gaussians::KinematicsOptions kinematics_;
-  gaussians::Camera camera_;  //!< render.camera from a cameras.json (unused for "orbit")
-  std::string png_dir_;
-  long png_files_ = 0;
+  std::unique_ptr<gaussians::RunRenderer> renderer_;  //!< null without a [render] table
 };
 
 }  // namespace gen4d::elastogen

@@ -52,8 +52,4 @@ class SplatEmbedding {
   double max_extrapolation_ = 0;
 };
 
-//! Appends the splats of `from` to `to`, raising the SH degree of either to the larger one (the
-//! added coefficients zero). `to` may be empty (sh_degree then taken from `from`).
-void append_splats(gaussians::SplatSet& to, const gaussians::SplatSet& from);
-
 }  // namespace gen4d::elastogen

@@ -1,5 +1,7 @@
 #include "gaussians/Splats.hpp"
 
+#include <algorithm>
+
 #include <cmath>
 #include <stdexcept>
 
@@ -56,6 +58,39 @@ void SplatFrame::append(const SplatFrame& other) {
   opacity.insert(opacity.end(), other.opacity.begin(), other.opacity.end());
   sh.insert(sh.end(), other.sh.begin(), other.sh.end());
   sh_rotation.insert(sh_rotation.end(), other.sh_rotation.begin(), other.sh_rotation.end());
+}
+
+namespace {
+
+//! SH coefficients of splat i at degree `to` (>= the set's), 3 per coefficient, appended.
+void append_sh(const SplatSet& s, std::size_t i, int to, std::vector<double>& out) {
+  const std::size_t have = 3 * static_cast<std::size_t>(s.coefficients());
+  const std::size_t want = 3 * static_cast<std::size_t>(sh_coefficients(to));
+  const double* src = s.sh.data() + i * have;
+  out.insert(out.end(), src, src + have);
+  out.insert(out.end(), want - have, 0.0);
+}
+
+}  // namespace
+
+void append_splats(SplatSet& to, const SplatSet& from) {
+  from.check_sizes();
+  if (to.size() == 0) {
+    to.sh_degree = std::max(to.sh_degree, from.sh_degree);
+    to.sh.clear();
+  }
+  const int degree = std::max(to.sh_degree, from.sh_degree);
+  if (degree != to.sh_degree) {
+    std::vector<double> sh;
+    for (std::size_t i = 0; i < to.size(); ++i) append_sh(to, i, degree, sh);
+    to.sh = std::move(sh);
+    to.sh_degree = degree;
+  }
+  to.position.insert(to.position.end(), from.position.begin(), from.position.end());
+  to.scale.insert(to.scale.end(), from.scale.begin(), from.scale.end());
+  to.rotation.insert(to.rotation.end(), from.rotation.begin(), from.rotation.end());
+  to.opacity.insert(to.opacity.end(), from.opacity.begin(), from.opacity.end());
+  for (std::size_t i = 0; i < from.size(); ++i) append_sh(from, i, degree, to.sh);
 }
 
 }  // namespace gen4d::gaussians

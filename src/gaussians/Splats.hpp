@@ -44,6 +44,10 @@ struct SplatSet {
   std::array<double, 6> covariance(std::size_t i) const;
 };
 
+//! Appends the splats of `from` to `to`, raising the SH degree of either to the larger one (the
+//! added coefficients zero). `to` may be empty (sh_degree then taken from `from`).
+void append_splats(SplatSet& to, const SplatSet& from);
+
 //! What a renderer draws: deformed splats in world space, single precision as the 3DGS
 //! rasterizer uses. Built from a SplatSet by the kinematics (gaussians/Kinematics.hpp).
 struct SplatFrame {

@@ -92,14 +92,16 @@ MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm
   auto material = make_deck_material(cfg_);
   // Splat parts become one particle per Gaussian; the others are seeded on the lattice.
   std::vector<GeometryConfig> solid_parts;
-  std::vector<gaussians::SplatSet> sets;
+  gaussians::SplatSet splats;
+  bool any_splats = false;
   for (const GeometryConfig& g : cfg_.geometry) {
-    if (g.type == "splats")
-      sets.push_back(gaussians::load_geometry_splats(g));
-    else
+    if (g.type == "splats") {
+      gaussians::append_splats(splats, gaussians::load_geometry_splats(g));
+      any_splats = true;
+    } else {
       solid_parts.push_back(g);
+    }
   }
-  const gaussians::SplatSet splats = merge_splat_sets(sets);
   std::unique_ptr<geometry::Shape> shape;
   geometry::Aabb bounds;
   if (!solid_parts.empty()) {
@@ -110,14 +112,13 @@ MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm
     bounds.extend(Eigen::Vector3d(splats.position[3 * i], splats.position[3 * i + 1],
                                   splats.position[3 * i + 2]));
   spec_ = layout_grid(cfg_, bounds);
-  carries_splats_ = !sets.empty() || cfg_.render.enabled;
+  carries_splats_ = any_splats || cfg_.render.enabled;
   layout_.sh_degree = splats.sh_degree;
   kinematics_ = gaussians::KinematicsOptions::parse(cfg_.render.kinematics,
                                                     cfg_.source + ": key 'render.kinematics'");
   covariance_update_ = parse_covariance_update(cfg_.render.covariance_update,
                                                cfg_.source + ": key 'render.covariance_update'");
-  if (cfg_.render.enabled && cfg_.render.camera != "orbit")
-    fixed_camera_ = gaussians::read_camera_spec(cfg_.render.camera);
+  if (cfg_.render.enabled) renderer_ = std::make_unique<gaussians::RunRenderer>(comm_, cfg_.render);
   SolverOptions opt;
   opt.gravity = cfg_.gravity;
   opt.max_dt = cfg_.dt;
@@ -269,44 +270,13 @@ void MpmSimulation::write_frame(ParticleFrameWriter& writer, const std::string& 
     if (!error.empty()) throw RuntimeError(error);
   }
   io_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (cfg_.render.enabled) render_frame(index, out_dir);
+  if (renderer_) render_frame(index);
 }
 
-void MpmSimulation::render_frame(int index, const std::string& out_dir) {
+void MpmSimulation::render_frame(int index) {
   PhaseTimers::Scope scope(solver_->timers(), "render");
-  const RenderConfig& r = cfg_.render;
-  gaussians::Camera camera = fixed_camera_;
-  if (r.camera == "orbit") {
-    gaussians::OrbitCamera orbit;
-    orbit.center = r.center;
-    orbit.up = r.up;
-    orbit.azimuth = r.azimuth;
-    orbit.elevation = r.elevation;
-    orbit.radius = r.radius;
-    orbit.d_azimuth = r.d_azimuth;
-    orbit.d_elevation = r.d_elevation;
-    orbit.d_radius = r.d_radius;
-    orbit.fov_y_degrees = r.fov_y;
-    orbit.width = r.width;
-    orbit.height = r.height;
-    camera = orbit.at_frame(index);
-  }
-  gaussians::RenderOptions options;
-  for (int c = 0; c < 3; ++c) options.background[c] = static_cast<float>(r.background[c]);
-  const gaussians::SplatFrame frame =
-      splat_frame(solver_->particles(), layout_, kinematics_, covariance_update_);
-  const gaussians::Image image = gaussians::render_distributed(comm_, frame, camera, options);
-  std::string error;
-  if (rank_ == 0) {
-    try {
-      gaussians::write_image_png(
-          (fs::path(out_dir) / "png" / fmt::format("frame_{:06d}.png", index)).string(), image);
-    } catch (const std::exception& e) {
-      error = e.what();
-    }
-  }
-  error = io::h5::first_error(comm_, error);
-  if (!error.empty()) throw RuntimeError(error);
+  renderer_->render(index,
+                    splat_frame(solver_->particles(), layout_, kinematics_, covariance_update_));
 }
 
 void MpmSimulation::take_snapshot() {
@@ -330,7 +300,6 @@ MpmRunResult MpmSimulation::run(const std::string& out_dir, bool append) {
       fs::create_directories(fs::path(out_dir) / "volumes", ec);
     if (!ec && cfg_.output.particles == "ply" && carries_splats_)
       fs::create_directories(fs::path(out_dir) / "splats", ec);
-    if (!ec && cfg_.render.enabled) fs::create_directories(fs::path(out_dir) / "png", ec);
     if (ec) error = out_dir + ": cannot create the output directory: " + ec.message();
   }
   error = io::h5::first_error(comm_, error);
@@ -341,6 +310,11 @@ MpmRunResult MpmSimulation::run(const std::string& out_dir, bool append) {
              : ParticleFrameWriter(comm_, frames_path, total_,
                                    {{"deck", cfg_.text}, {"solver", "mpm"}});
   const double interval = frame_interval();
+  if (renderer_) {
+    PhaseTimers::Scope scope(solver_->timers(), "render");
+    // Images after the last frame kept belong to a run that particles.h5 no longer holds.
+    renderer_->open(out_dir, writer.frames().empty() ? -1 : writer.frames().back().index);
+  }
   if (!append) {
     // A fresh file starts with the current state (t = 0, or a restart's checkpoint).
     write_frame(writer, out_dir);
@@ -413,21 +387,9 @@ MpmRunResult MpmSimulation::run(const std::string& out_dir, bool append) {
   }
   if (res.exit_code == 0) res.last_checkpoint = write_checkpoint(out_dir);
   writer.close();
-  if (res.exit_code == 0 && cfg_.render.enabled && cfg_.render.mp4) {
-    // Real-time playback where the frame interval allows it, within 1 to 60 frames per second.
-    const double fps = std::clamp(1.0 / interval, 1.0, 60.0);
-    std::string error;
-    if (rank_ == 0) {
-      try {
-        const std::string mp4 = gaussians::assemble_mp4(
-            (fs::path(out_dir) / "png").string(), fps, (fs::path(out_dir) / "render.mp4").string());
-        if (!mp4.empty()) log::info("render: {}", mp4);
-      } catch (const std::exception& e) {
-        error = e.what();
-      }
-    }
-    error = io::h5::first_error(comm_, error);
-    if (!error.empty()) throw RuntimeError(error);
+  if (renderer_ && res.exit_code == 0) {
+    PhaseTimers::Scope scope(solver_->timers(), "render");
+    renderer_->finish(interval);
   }
   res.substeps = substeps;
   res.wall_seconds =

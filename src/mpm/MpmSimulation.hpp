@@ -18,7 +18,7 @@
 
 #include "core/Config.hpp"
 #include "geometry/Shape.hpp"
-#include "gaussians/Camera.hpp"
+#include "gaussians/RunRender.hpp"
 #include "gaussians/Kinematics.hpp"
 #include "mpm/ParticleIO.hpp"
 #include "mpm/Solver.hpp"
@@ -70,7 +70,7 @@ class MpmSimulation {
   std::string write_checkpoint(const std::string& out_dir, const Snapshot* from = nullptr);
   void write_frame(ParticleFrameWriter& writer, const std::string& out_dir);
   //! The [render] image of frame `index` (collective; rank 0 writes it).
-  void render_frame(int index, const std::string& out_dir);
+  void render_frame(int index);
   void take_snapshot();
   void report_timers(double wall, long substeps) const;
 
@@ -90,7 +90,7 @@ class MpmSimulation {
   SplatLayout layout_;
   CovarianceUpdate covariance_update_ = CovarianceUpdate::DeformationGradient;
   gaussians::KinematicsOptions kinematics_;
-  gaussians::Camera fixed_camera_;  //!< [render] camera from a cameras.json
+  std::unique_ptr<gaussians::RunRenderer> renderer_;  //!< null without a [render] table
 };
 
 }  // namespace gen4d::mpm

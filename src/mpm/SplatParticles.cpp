@@ -114,26 +114,6 @@ void isotropic_rest_values(double sigma, double opacity, const double* rgb,
   for (int c = 0; c < 3; ++c) out[SplatLayout::kSh + c] = (rgb[c] - 0.5) / kShC0;
 }
 
-gaussians::SplatSet merge_splat_sets(const std::vector<gaussians::SplatSet>& sets) {
-  gaussians::SplatSet out;
-  for (const auto& s : sets) out.sh_degree = std::max(out.sh_degree, s.sh_degree);
-  const std::size_t K = static_cast<std::size_t>(out.coefficients());
-  for (const auto& s : sets) {
-    s.check_sizes();
-    out.position.insert(out.position.end(), s.position.begin(), s.position.end());
-    out.scale.insert(out.scale.end(), s.scale.begin(), s.scale.end());
-    out.rotation.insert(out.rotation.end(), s.rotation.begin(), s.rotation.end());
-    out.opacity.insert(out.opacity.end(), s.opacity.begin(), s.opacity.end());
-    const std::size_t per = 3 * static_cast<std::size_t>(s.coefficients());
-    for (std::size_t i = 0; i < s.size(); ++i) {
-      out.sh.insert(out.sh.end(), s.sh.begin() + static_cast<long>(per * i),
-                    s.sh.begin() + static_cast<long>(per * (i + 1)));
-      out.sh.insert(out.sh.end(), 3 * K - per, 0.0);
-    }
-  }
-  return out;
-}
-
 void advance_splats(Particles& p, const SplatLayout& layout, double dt, CovarianceUpdate mode) {
   const int W = layout.width();
   if (p.extra_width != W)

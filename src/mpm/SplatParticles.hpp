@@ -51,10 +51,6 @@ void splat_rest_values(const gaussians::SplatSet& splats, std::size_t i, const S
 void isotropic_rest_values(double sigma, double opacity, const double* rgb,
                            const SplatLayout& layout, double* out);
 
-//! One set of the splats of several sets in order, the harmonics zero-padded to the highest
-//! degree among them.
-gaussians::SplatSet merge_splat_sets(const std::vector<gaussians::SplatSet>& sets);
-
 //! Kinematics of one substep, after Solver::substep (p.C is then the velocity gradient of the
 //! G2P transfer, as the solver's F update uses it): F_tot <- (I + dt C) F_tot, and in Rate mode
 //! the covariance's rate update, for every particle not frozen (flag bit 0).

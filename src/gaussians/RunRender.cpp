@@ -1,0 +1,116 @@
+#include "gaussians/RunRender.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <functional>
+#include <vector>
+
+#include "core/Error.hpp"
+#include "gaussians/Video.hpp"
+
+namespace gen4d::gaussians {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+//! Runs `work` on rank 0; when it throws, every rank throws a RuntimeError (rank 0 with the
+//! original message, the others with `elsewhere`). Collective.
+void on_rank0(MPI_Comm comm, int rank, const std::string& elsewhere,
+              const std::function<void()>& work) {
+  std::string error;
+  if (rank == 0) {
+    try {
+      work();
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
+  int failed = error.empty() ? 0 : 1;
+  MPI_Bcast(&failed, 1, MPI_INT, 0, comm);
+  if (failed) throw RuntimeError(rank == 0 ? error : elsewhere);
+}
+
+}  // namespace
+
+std::string frame_png_name(long index) {
+  return fmt::format("frame_{:06d}.png", index);
+}
+
+long frame_png_index(const std::string& name) {
+  const std::string head = "frame_", tail = ".png";
+  if (name.size() <= head.size() + tail.size() || name.rfind(head, 0) != 0 ||
+      name.compare(name.size() - tail.size(), tail.size(), tail) != 0)
+    return -1;
+  const std::string digits = name.substr(head.size(), name.size() - head.size() - tail.size());
+  if (digits.size() > 12 || !std::all_of(digits.begin(), digits.end(),
+                                         [](unsigned char c) { return std::isdigit(c) != 0; }))
+    return -1;
+  return std::stol(digits);
+}
+
+Camera orbit_camera(const RenderConfig& r, long index) {
+  OrbitCamera orbit;
+  orbit.center = r.center;
+  orbit.up = r.up;
+  orbit.azimuth = r.azimuth;
+  orbit.elevation = r.elevation;
+  orbit.radius = r.radius;
+  orbit.d_azimuth = r.d_azimuth;
+  orbit.d_elevation = r.d_elevation;
+  orbit.d_radius = r.d_radius;
+  orbit.fov_y_degrees = r.fov_y;
+  orbit.width = r.width;
+  orbit.height = r.height;
+  return orbit.at_frame(index);
+}
+
+RunRenderer::RunRenderer(MPI_Comm comm, const RenderConfig& r) : comm_(comm), cfg_(r) {
+  MPI_Comm_rank(comm_, &rank_);
+  if (cfg_.camera != "orbit") fixed_ = read_camera_spec(cfg_.camera);
+  for (int c = 0; c < 3; ++c) options_.background[c] = static_cast<float>(cfg_.background[c]);
+}
+
+Camera RunRenderer::camera(long index) const {
+  return cfg_.camera == "orbit" ? orbit_camera(cfg_, index) : fixed_;
+}
+
+void RunRenderer::open(const std::string& out_dir, long keep_up_to) {
+  out_dir_ = out_dir;
+  png_dir_ = (fs::path(out_dir) / "png").string();
+  on_rank0(comm_, rank_, png_dir_ + ": cannot prepare the image folder", [&] {
+    std::error_code ec;
+    fs::create_directories(png_dir_, ec);
+    if (ec) throw RuntimeError(png_dir_ + ": cannot create directory: " + ec.message());
+    std::vector<fs::path> doomed;
+    for (const auto& entry : fs::directory_iterator(png_dir_, ec))
+      if (frame_png_index(entry.path().filename().string()) > keep_up_to)
+        doomed.push_back(entry.path());
+    if (ec) throw RuntimeError(png_dir_ + ": cannot list: " + ec.message());
+    for (const auto& p : doomed)
+      if (!fs::remove(p, ec) && ec)
+        throw RuntimeError(p.string() + ": cannot remove: " + ec.message());
+  });
+}
+
+void RunRenderer::render(long index, const SplatFrame& local) {
+  const Image image = render_distributed(comm_, local, camera(index), options_);
+  on_rank0(comm_, rank_, png_dir_ + ": image write failed",
+           [&] { write_image_png((fs::path(png_dir_) / frame_png_name(index)).string(), image); });
+  ++images_;
+}
+
+void RunRenderer::finish(double frame_interval) {
+  if (!cfg_.mp4 || png_dir_.empty()) return;
+  // Real time where that is a sensible frame rate, else the nearer bound of [1, 60].
+  const double fps = std::clamp(frame_interval > 0 ? 1.0 / frame_interval : 60.0, 1.0, 60.0);
+  const std::string mp4 = (fs::path(out_dir_) / "render.mp4").string();
+  // assemble_mp4 notes itself what it wrote, or that ffmpeg is missing.
+  on_rank0(comm_, rank_, mp4 + ": video assembly failed",
+           [&] { assemble_mp4(png_dir_, fps, mp4); });
+}
+
+}  // namespace gen4d::gaussians
