@@ -212,9 +212,8 @@ angular_velocity = [{wx}, {wy}, {wz}]
                     fmt::arg("cy", center[1]), fmt::arg("cz", center[2]), fmt::arg("ax", axis[0]),
                     fmt::arg("ay", axis[1]), fmt::arg("az", axis[2]), fmt::arg("wx", w * axis[0]),
                     fmt::arg("wy", w * axis[1]), fmt::arg("wz", w * axis[2]));
-    const Config cfg =
-        parse_deck(deck_text(ply, T / o.substeps, T, "fixed_corotated", solver),
-                   "mpm-rotation", ".");
+    const Config cfg = parse_deck(deck_text(ply, T / o.substeps, T, "fixed_corotated", solver),
+                                  "mpm-rotation", ".");
     const double t0 = MPI_Wtime();
     mpm::MpmSimulation sim(MPI_COMM_WORLD, cfg);
     sim.run((fs::path(o.out) / "mpm").string(), false);
