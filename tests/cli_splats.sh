@@ -6,6 +6,27 @@
 set -u
 gen4d="$1"; mpiexec="$2"; dir="$3"
 rm -rf "$dir"; mkdir -p "$dir"
+donut="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/inputs/splats/donut.ply"
+cat > "$dir/noview.toml" <<TOML
+[simulation]
+dt = 2e-3
+end_time = 0.04
+gravity = [0.0, 0.0, -9.81]
+[solver]
+method = "mpm"
+[domain]
+voxel_size = 0.02
+[[geometry]]
+type = "splats"
+file = "$donut"
+[material]
+model = "fixed_corotated"
+youngs_modulus = 2e4
+poisson_ratio = 0.3
+density = 1000
+[output]
+frame_interval = 0.02
+TOML
 fail() { echo "FAIL $*"; exit 1; }
 sets=(--set simulation.end_time=0.06 --set output.frame_interval=0.03
       --set output.progress_interval=100 --set render.width=96 --set render.height=72
@@ -30,6 +51,16 @@ nply=$(ls "$dir/np1/splats" | wc -l)
 "$gen4d" render "$dir/np1/splats/$(ls "$dir/np1/splats" | tail -1)" --out "$dir/last.png" \
   --width 64 --height 48 > "$dir/render.log" 2>&1 || { cat "$dir/render.log"; fail "render"; }
 [[ -s "$dir/last.png" ]] || fail "no last.png"
+
+# --mp4 on a splat deck without [render]: the auto camera frames it, and ffmpeg makes the video.
+"$mpiexec" -n 2 "$gen4d" run "$dir/noview.toml" --out "$dir/mp4" --mp4 > "$dir/mp4.log" 2>&1 ||
+  { cat "$dir/mp4.log"; fail "--mp4 run"; }
+[[ $(ls "$dir/mp4/png" | wc -l) -eq 3 ]] || fail "--mp4 run: $(ls "$dir/mp4/png")"
+if command -v ffmpeg > /dev/null; then
+  [[ -s "$dir/mp4/render.mp4" ]] || fail "no render.mp4"
+else
+  grep -q "ffmpeg is not on PATH" "$dir/mp4.log" || fail "no ffmpeg note"
+fi
 
 # Restart at 1 rank from the 2-rank run's first checkpoint: the same last image.
 "$mpiexec" -n 2 "$gen4d" run --out "$dir/cut" "${sets[@]}" --set output.checkpoint_every=20 \

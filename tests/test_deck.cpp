@@ -353,6 +353,14 @@ video = "mp4"
   EXPECT_EQ(again.render.d_azimuth, 3);
   EXPECT_TRUE(again.render.mp4);
   EXPECT_FALSE(parse_deck(kMinimalDeck, "<minimal>", ".", {}).render.enabled);
+  // Without camera, center or radius the orbit frames the object; a deck with splat geometry
+  // renders without a [render] table.
+  EXPECT_EQ(parse_deck(kMinimalDeck + "\n[render]\nwidth = 8\n", "<r>", ".", {}).render.camera,
+            "auto");
+  const std::string no_table = text.substr(0, text.find("[render]"));
+  const Config implicit = load_deck(write_deck("splats_implicit.toml", no_table), {});
+  EXPECT_TRUE(implicit.render.enabled);
+  EXPECT_EQ(implicit.render.camera, "auto");
 
   // A cameras.json entry, resolved against the deck's folder, keeps its index.
   const std::string cam = kMinimalDeck + "\n[render]\ncamera = \"assets/cameras.json:3\"\n";
@@ -389,7 +397,10 @@ TEST(Deck, SplatAndRenderErrors) {
   std::ofstream(dir / "assets" / "cameras.json") << "[]\n";
   const std::string msg = load_error(
       "splat_error.toml", splats + "\n[render]\ncamera = \"assets/cameras.json\"\nazimuth = 10\n");
-  EXPECT_NE(msg.find("only applies to camera = \"orbit\""), std::string::npos) << msg;
+  EXPECT_NE(msg.find("only applies to the orbit cameras"), std::string::npos) << msg;
+  const std::string auto_msg =
+      load_error("splat_error.toml", splats + "\n[render]\ncamera = \"auto\"\nradius = 2\n");
+  EXPECT_NE(auto_msg.find("render.radius"), std::string::npos) << auto_msg;
   const std::string box_color =
       load_error("color_error.toml",
                  replace_line(kMinimalDeck, "radius = 0.5", "radius = 0.5\ncolor = [0.5, 1.5, 0]"));

@@ -282,6 +282,9 @@ int dispatch(int argc, char** argv) {
   run->add_option("--set,-s", ra.sets, "Override a deck key, e.g. --set material.density=500")
       ->take_all();
   run->add_flag("--overwrite", ra.overwrite, "Replace results already in the output directory");
+  bool run_mp4 = false, restart_mp4 = false;
+  run->add_flag("--mp4", run_mp4,
+                "Render every output frame (as [render]) and assemble OUT/render.mp4 (ffmpeg)");
 
   std::string ckpt, rs_out;
   std::vector<std::string> rs_sets;
@@ -293,6 +296,7 @@ int dispatch(int argc, char** argv) {
   restart->add_option("--out,-o", rs_out, "Output directory (default: the checkpoint's)");
   restart->add_option("--set,-s", rs_sets,
                       "Override a key of the stored deck (e.g. simulation.end_time)");
+  restart->add_flag("--mp4", restart_mp4, "Render every output frame and assemble OUT/render.mp4");
 
   auto* info =
       app.add_subcommand("info", "Version, git revision, build options, dependencies, ranks, GPUs");
@@ -372,6 +376,9 @@ int dispatch(int argc, char** argv) {
   }
   if (const int code = neural.run(); code >= 0) return code;
   if (const int code = render.run(); code >= 0) return code;
+  // --mp4 is the deck key render.video = "mp4" (a [render] table is added where there is none).
+  if (run_mp4) ra.sets.push_back("render.video=\"mp4\"");
+  if (restart_mp4) rs_sets.push_back("render.video=\"mp4\"");
   if (*run) return cmd_run(ra);
   if (*restart) return cmd_restart(ckpt, rs_out, rs_sets);
   if (*info) return cmd_info();

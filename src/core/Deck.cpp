@@ -520,10 +520,12 @@ void read_output(const Section& s, OutputConfig& o) {
   o.volumes = s.choice("volumes", o.volumes, {"none", "vdb"});
 }
 
-//! "orbit", or a 3DGS cameras.json "FILE[:INDEX]" resolved against the deck's folder.
+//! "auto", "orbit", or a 3DGS cameras.json "FILE[:INDEX]" resolved against the deck's folder.
+//! Without the key: "orbit" when the table places the orbit (center or radius), else "auto".
 std::string resolve_camera(Section& s, const fs::path& base_dir) {
-  const std::string spec = s.string("camera", "orbit");
-  if (spec == "orbit") return spec;
+  const std::string fallback = s.has("center") || s.has("radius") ? "orbit" : "auto";
+  const std::string spec = s.string("camera", fallback);
+  if (spec == "orbit" || spec == "auto") return spec;
   std::string file = spec, index;
   const auto colon = spec.rfind(':');
   if (colon != std::string::npos && colon + 1 < spec.size() &&
@@ -532,7 +534,7 @@ std::string resolve_camera(Section& s, const fs::path& base_dir) {
     file = spec.substr(0, colon);
     index = spec.substr(colon);
   }
-  s.check(!file.empty(), "camera", "must be \"orbit\" or a cameras.json file[:index]");
+  s.check(!file.empty(), "camera", "must be \"auto\", \"orbit\" or a cameras.json file[:index]");
   const fs::path path = fs::absolute(base_dir / fs::path(file)).lexically_normal();
   std::error_code ec;
   s.check(fs::is_regular_file(path, ec), "camera",
@@ -541,15 +543,22 @@ std::string resolve_camera(Section& s, const fs::path& base_dir) {
   return path.string() + index;
 }
 
-void read_render(Section& s, const fs::path& base_dir, RenderConfig& r) {
-  if (!s.present()) return;
+//! [render]; a deck with splat geometry renders even without the table (camera "auto").
+void read_render(Section& s, const fs::path& base_dir, const Config& c, RenderConfig& r) {
+  const bool splats = std::any_of(c.geometry.begin(), c.geometry.end(),
+                                  [](const GeometryConfig& g) { return g.type == "splats"; });
+  if (!s.present() && !splats) return;
   r.enabled = true;
   r.camera = resolve_camera(s, base_dir);
-  const bool orbit = r.camera == "orbit";
+  if (r.camera == "auto")
+    for (const char* key : {"center", "radius"})
+      if (s.has(key))
+        s.fail(key, "only applies to camera = \"orbit\" (\"auto\" frames the object)");
+  const bool orbit = r.camera == "orbit" || r.camera == "auto";
   for (const char* key : {"center", "up", "azimuth", "elevation", "radius", "d_azimuth",
                           "d_elevation", "d_radius", "fov_y", "width", "height"})
     if (!orbit && s.has(key))
-      s.fail(key, "only applies to camera = \"orbit\" (a cameras.json entry sets its own view)");
+      s.fail(key, "only applies to the orbit cameras (a cameras.json entry sets its own view)");
   r.center = s.vec3("center", r.center);
   r.up = s.vec3("up", r.up);
   require_nonzero_vector(s, "up", r.up);
@@ -702,7 +711,7 @@ Config parse_deck(const std::string& text, const std::string& source_name,
   check_surface_source(output, c);
   {
     Section render = table_section(root, "render", loc);
-    read_render(render, fs::path(base_dir.empty() ? "." : base_dir), c.render);
+    read_render(render, fs::path(base_dir.empty() ? "." : base_dir), c, c.render);
   }
 
   c.text = write_deck_text(root);

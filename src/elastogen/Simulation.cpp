@@ -145,6 +145,7 @@ Simulation::Simulation(MPI_Comm comm, const Config& cfg) : comm_(comm), cfg_(cfg
   }();
   const std::unique_ptr<geometry::Shape> shape = std::move(object.shape);
   layout_ = object.layout;
+  if (renderer_) renderer_->frame_object(object.splats, {1, 1, 1}, {0, 0, 0});
   grid_ = std::make_unique<parallel::NodeGrid>(comm, layout_.nodes);
   std::vector<std::uint8_t> occ;
   {

@@ -420,20 +420,25 @@ double psnr(const Image& a, const Image& b) {
 
 namespace gen4d::gaussians {
 
-OrbitCamera framing_orbit(const SplatFrame& splats, int width, int height, double fov_y_degrees,
-                          const std::array<double, 3>& up) {
+std::array<std::array<double, 3>, 2> central_box(const SplatFrame& splats) {
   const std::size_t n = splats.size();
   if (n == 0) throw InputError("framing camera: there are no splats to frame");
-  double lo[3], hi[3];
+  std::array<std::array<double, 3>, 2> box;
   std::vector<float> axis(n);
   for (int a = 0; a < 3; ++a) {
     for (std::size_t i = 0; i < n; ++i) axis[i] = splats.position[3 * i + a];
     const std::size_t i_lo = (n - 1) * 2 / 100, i_hi = (n - 1) * 98 / 100;
     std::nth_element(axis.begin(), axis.begin() + static_cast<long>(i_lo), axis.end());
-    lo[a] = axis[i_lo];
+    box[0][a] = axis[i_lo];
     std::nth_element(axis.begin(), axis.begin() + static_cast<long>(i_hi), axis.end());
-    hi[a] = axis[i_hi];
+    box[1][a] = axis[i_hi];
   }
+  return box;
+}
+
+OrbitCamera framing_orbit(const std::array<double, 3>& lo, const std::array<double, 3>& hi,
+                          int width, int height, double fov_y_degrees,
+                          const std::array<double, 3>& up) {
   OrbitCamera orbit;
   orbit.up = up;
   orbit.width = width;
@@ -451,6 +456,12 @@ OrbitCamera framing_orbit(const SplatFrame& splats, int width, int height, doubl
   const double sphere = std::max(std::sqrt(r2), 1e-6);
   orbit.radius = 1.05 * sphere / std::sin(std::min(half_fov_x, half_fov_y));
   return orbit;
+}
+
+OrbitCamera framing_orbit(const SplatFrame& splats, int width, int height, double fov_y_degrees,
+                          const std::array<double, 3>& up) {
+  const auto box = central_box(splats);
+  return framing_orbit(box[0], box[1], width, height, fov_y_degrees, up);
 }
 
 }  // namespace gen4d::gaussians

@@ -69,6 +69,13 @@ Image render_distributed(MPI_Comm comm, const SplatFrame& local, const Camera& c
 //! narrower field of view. InputError when there are no splats.
 OrbitCamera framing_orbit(const SplatFrame& splats, int width, int height, double fov_y_degrees,
                           const std::array<double, 3>& up = {0, 0, 1});
+//! The same for the box [lo, hi].
+OrbitCamera framing_orbit(const std::array<double, 3>& lo, const std::array<double, 3>& hi,
+                          int width, int height, double fov_y_degrees,
+                          const std::array<double, 3>& up = {0, 0, 1});
+//! The box of the 2nd to 98th percentiles of the splats' positions along each axis (InputError
+//! when there are none): {lo, hi}.
+std::array<std::array<double, 3>, 2> central_box(const SplatFrame& splats);
 
 //! 8-bit PNG of an image (clamped to [0, 1], rounded), through a temporary and a rename.
 void write_image_png(const std::string& path, const Image& image);

@@ -8,12 +8,12 @@
 
 #include <algorithm>
 #include <chrono>
-#include <climits>
 #include <cstdint>
 #include <vector>
 
 #include "core/Error.hpp"
 #include "gaussians/Render.hpp"
+#include "parallel/Distribute.hpp"
 #include "gaussians/RenderDetail.hpp"
 
 namespace gen4d::gaussians {
@@ -83,46 +83,20 @@ Image render_distributed(MPI_Comm comm, const SplatFrame& local, const Camera& c
     return static_cast<int>(std::upper_bound(bounds.begin() + 1, bounds.end(), row) -
                             (bounds.begin() + 1));
   };
-  std::vector<long long> send_count(static_cast<std::size_t>(ranks), 0);
+  std::vector<detail::Projected> received;
+  std::vector<int> dest;
   for (const auto& g : mine)
     for (int r = first_rank(g.y0); r < ranks && bounds[static_cast<std::size_t>(r)] < g.y1; ++r)
-      if (bounds[static_cast<std::size_t>(r) + 1] > bounds[static_cast<std::size_t>(r)])
-        ++send_count[static_cast<std::size_t>(r)];
-  std::vector<int> scount(static_cast<std::size_t>(ranks)), sdispl(scount.size());
-  long long offset = 0;
-  for (int r = 0; r < ranks; ++r) {
-    if (offset + send_count[static_cast<std::size_t>(r)] > INT_MAX)
-      throw RuntimeError("render_distributed: too many splats to send from one rank");
-    scount[static_cast<std::size_t>(r)] = static_cast<int>(send_count[static_cast<std::size_t>(r)]);
-    sdispl[static_cast<std::size_t>(r)] = static_cast<int>(offset);
-    offset += send_count[static_cast<std::size_t>(r)];
-  }
-  std::vector<detail::Projected> sendbuf(static_cast<std::size_t>(offset));
-  {
-    std::vector<int> fill = sdispl;
-    for (const auto& g : mine)
-      for (int r = first_rank(g.y0); r < ranks && bounds[static_cast<std::size_t>(r)] < g.y1; ++r)
-        if (bounds[static_cast<std::size_t>(r) + 1] > bounds[static_cast<std::size_t>(r)])
-          sendbuf[static_cast<std::size_t>(fill[static_cast<std::size_t>(r)]++)] = g;
-  }
+      if (bounds[static_cast<std::size_t>(r) + 1] > bounds[static_cast<std::size_t>(r)]) {
+        received.push_back(g);
+        dest.push_back(r);
+      }
   std::vector<detail::Projected>().swap(mine);
-  std::vector<int> rcount(scount.size()), rdispl(scount.size());
-  MPI_Alltoall(scount.data(), 1, MPI_INT, rcount.data(), 1, MPI_INT, comm);
-  long long rtotal = 0;
-  for (int r = 0; r < ranks; ++r) {
-    if (rtotal + rcount[static_cast<std::size_t>(r)] > INT_MAX)
-      throw RuntimeError("render_distributed: too many splats to receive on one rank");
-    rdispl[static_cast<std::size_t>(r)] = static_cast<int>(rtotal);
-    rtotal += rcount[static_cast<std::size_t>(r)];
-  }
-  std::vector<detail::Projected> received(static_cast<std::size_t>(rtotal));
-  MPI_Datatype type;
-  MPI_Type_contiguous(static_cast<int>(sizeof(detail::Projected)), MPI_BYTE, &type);
-  MPI_Type_commit(&type);
-  MPI_Alltoallv(sendbuf.data(), scount.data(), sdispl.data(), type, received.data(), rcount.data(),
-                rdispl.data(), type, comm);
-  MPI_Type_free(&type);
-  std::vector<detail::Projected>().swap(sendbuf);
+  // Blending does not depend on the order of the splats (equal depths are ordered by their
+  // data), so the exchange's order (kept rows first) is as good as any.
+  parallel::RowExchange exchange;
+  exchange.add(received, 1);
+  exchange.exchange(comm, dest);
   double t2 = now();
   st.exchange += t2 - t1;
 

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/Error.hpp"
+#include "gaussians/Kinematics.hpp"
 #include "gaussians/Video.hpp"
 
 namespace gen4d::gaussians {
@@ -70,12 +71,34 @@ Camera orbit_camera(const RenderConfig& r, long index) {
 
 RunRenderer::RunRenderer(MPI_Comm comm, const RenderConfig& r) : comm_(comm), cfg_(r) {
   MPI_Comm_rank(comm_, &rank_);
-  if (cfg_.camera != "orbit") fixed_ = read_camera_spec(cfg_.camera);
+  if (cfg_.camera == "auto") cfg_.radius = 0;  // set by frame_object
+  if (cfg_.camera != "orbit" && cfg_.camera != "auto") fixed_ = read_camera_spec(cfg_.camera);
   for (int c = 0; c < 3; ++c) options_.background[c] = static_cast<float>(cfg_.background[c]);
 }
 
+void RunRenderer::frame_object(const SplatSet& splats, const std::array<double, 3>& lo,
+                               const std::array<double, 3>& hi) {
+  if (cfg_.camera != "auto") return;
+  std::array<double, 3> a = lo, b = hi;
+  if (splats.size() > 0) {
+    const auto box = central_box(rest_frame(splats));
+    for (int k = 0; k < 3; ++k) {
+      const bool other = lo[k] <= hi[k];
+      a[k] = other ? std::min(lo[k], box[0][k]) : box[0][k];
+      b[k] = other ? std::max(hi[k], box[1][k]) : box[1][k];
+    }
+  }
+  for (int k = 0; k < 3; ++k)
+    if (!(a[k] <= b[k])) throw InputError("render.camera = \"auto\": there is no object to frame");
+  const OrbitCamera o = framing_orbit(a, b, cfg_.width, cfg_.height, cfg_.fov_y, cfg_.up);
+  cfg_.center = o.center;
+  cfg_.radius = o.radius;
+}
+
 Camera RunRenderer::camera(long index) const {
-  return cfg_.camera == "orbit" ? orbit_camera(cfg_, index) : fixed_;
+  if (cfg_.camera == "auto" && cfg_.radius <= 0)
+    throw std::logic_error("RunRenderer: the auto camera has not framed the object");
+  return cfg_.camera == "orbit" || cfg_.camera == "auto" ? orbit_camera(cfg_, index) : fixed_;
 }
 
 void RunRenderer::open(const std::string& out_dir, long keep_up_to) {

@@ -5,6 +5,7 @@
 
 #include <mpi.h>
 
+#include <array>
 #include <string>
 
 #include "core/Config.hpp"
@@ -21,6 +22,12 @@ class RunRenderer {
  public:
   //! Reads the cameras.json entry where render.camera names one (InputError naming the file).
   RunRenderer(MPI_Comm comm, const RenderConfig& r);
+
+  //! For render.camera = "auto": the orbit's centre and radius frame the object at rest, the
+  //! central box of `splats` (see central_box) joined with [lo, hi] (the other parts' bounds;
+  //! ignored where lo > hi). No effect for the other cameras.
+  void frame_object(const SplatSet& splats, const std::array<double, 3>& lo,
+                    const std::array<double, 3>& hi);
 
   //! Creates out_dir/png and removes its images of frames after `keep_up_to` (-1: every image,
   //! for a fresh run; a restart keeps the frames its frame file keeps). Collective; RuntimeError

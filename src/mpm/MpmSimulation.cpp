@@ -118,7 +118,12 @@ MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm
                                                     cfg_.source + ": key 'render.kinematics'");
   covariance_update_ = parse_covariance_update(cfg_.render.covariance_update,
                                                cfg_.source + ": key 'render.covariance_update'");
-  if (cfg_.render.enabled) renderer_ = std::make_unique<gaussians::RunRenderer>(comm_, cfg_.render);
+  if (cfg_.render.enabled) {
+    renderer_ = std::make_unique<gaussians::RunRenderer>(comm_, cfg_.render);
+    const geometry::Aabb other = shape ? shape->bounds() : geometry::Aabb();
+    renderer_->frame_object(splats, {other.lo[0], other.lo[1], other.lo[2]},
+                            {other.hi[0], other.hi[1], other.hi[2]});
+  }
   SolverOptions opt;
   opt.gravity = cfg_.gravity;
   opt.max_dt = cfg_.dt;
