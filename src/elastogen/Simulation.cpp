@@ -12,6 +12,7 @@
 #include "core/BuildInfo.hpp"
 #include "core/Deck.hpp"
 #include "core/Error.hpp"
+#include "parallel/Collective.hpp"
 #include "core/Log.hpp"
 #include "core/Signals.hpp"
 #include "core/Progress.hpp"
@@ -25,23 +26,6 @@
 namespace gen4d::elastogen {
 
 namespace {
-
-//! Runs `work` on rank 0 only; if it throws, every rank throws a RuntimeError (rank 0 with
-//! the original message, the others with `elsewhere`). Collective.
-void on_rank0(MPI_Comm comm, int rank, const std::string& elsewhere,
-              const std::function<void()>& work) {
-  std::string error;
-  if (rank == 0) {
-    try {
-      work();
-    } catch (const std::exception& e) {
-      error = e.what();
-    }
-  }
-  int failed = error.empty() ? 0 : 1;
-  MPI_Bcast(&failed, 1, MPI_INT, 0, comm);
-  if (failed) throw RuntimeError(rank == 0 ? error : elsewhere);
-}
 
 io::NodeBox to_io(const Box& b) {
   return io::NodeBox{b.start, b.count};
@@ -286,7 +270,7 @@ std::string Simulation::write_checkpoint(const std::string& out_dir) {
 
 std::unique_ptr<io::FrameWriter> Simulation::open_frames(const std::string& out_dir, bool append) {
   PhaseTimers::Scope t(timers_, "io");
-  on_rank0(comm_, rank_, out_dir + ": cannot create directory", [&] {
+  parallel::on_rank0(comm_, out_dir + ": cannot create directory", [&] {
     std::error_code ec;
     std::filesystem::create_directories(out_dir, ec);
     if (ec) throw RuntimeError(out_dir + ": cannot create the output directory: " + ec.message());
@@ -329,7 +313,7 @@ void Simulation::open_surface(const std::string& out_dir, const io::FrameWriter&
   surface_dir_ = (std::filesystem::path(out_dir) / io::kSurfaceDir).string();
   // Frames later than the last one kept were dropped from frames.h5 (or all, for a fresh run).
   const long keep = writer.frames().empty() ? -1 : writer.frames().back().index;
-  on_rank0(comm_, rank_, surface_dir_ + ": cannot prepare", [&] {
+  parallel::on_rank0(comm_, surface_dir_ + ": cannot prepare", [&] {
     std::error_code ec;
     std::filesystem::create_directories(surface_dir_, ec);
     if (ec) throw RuntimeError(surface_dir_ + ": cannot create directory: " + ec.message());
@@ -344,7 +328,7 @@ void Simulation::write_surface(long index) {
   std::vector<double> xyz = surface_->gather(dyn_->x().data());
   const double gathered = MPI_Wtime();
   surface_gather_seconds_ += gathered - start;
-  on_rank0(comm_, rank_, surface_dir_ + ": surface write failed", [&] {
+  parallel::on_rank0(comm_, surface_dir_ + ": surface write failed", [&] {
     surface_mesh_.xyz = std::move(xyz);
     surface_mesh_.comments = {fmt::format(
         "gen4d surface of '{}': frame {} step {} time {} s, {}", cfg_.name, index, step_, time_,

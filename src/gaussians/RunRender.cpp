@@ -5,37 +5,16 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
-#include <functional>
 #include <vector>
 
 #include "core/Error.hpp"
+#include "parallel/Collective.hpp"
 #include "gaussians/Kinematics.hpp"
 #include "gaussians/Video.hpp"
 
 namespace gen4d::gaussians {
 
 namespace fs = std::filesystem;
-
-namespace {
-
-//! Runs `work` on rank 0; when it throws, every rank throws a RuntimeError (rank 0 with the
-//! original message, the others with `elsewhere`). Collective.
-void on_rank0(MPI_Comm comm, int rank, const std::string& elsewhere,
-              const std::function<void()>& work) {
-  std::string error;
-  if (rank == 0) {
-    try {
-      work();
-    } catch (const std::exception& e) {
-      error = e.what();
-    }
-  }
-  int failed = error.empty() ? 0 : 1;
-  MPI_Bcast(&failed, 1, MPI_INT, 0, comm);
-  if (failed) throw RuntimeError(rank == 0 ? error : elsewhere);
-}
-
-}  // namespace
 
 std::string frame_png_name(long index) {
   return fmt::format("frame_{:06d}.png", index);
@@ -104,7 +83,7 @@ Camera RunRenderer::camera(long index) const {
 void RunRenderer::open(const std::string& out_dir, long keep_up_to) {
   out_dir_ = out_dir;
   png_dir_ = (fs::path(out_dir) / "png").string();
-  on_rank0(comm_, rank_, png_dir_ + ": cannot prepare the image folder", [&] {
+  parallel::on_rank0(comm_, png_dir_ + ": cannot prepare the image folder", [&] {
     std::error_code ec;
     fs::create_directories(png_dir_, ec);
     if (ec) throw RuntimeError(png_dir_ + ": cannot create directory: " + ec.message());
@@ -121,8 +100,9 @@ void RunRenderer::open(const std::string& out_dir, long keep_up_to) {
 
 void RunRenderer::render(long index, const SplatFrame& local) {
   const Image image = render_distributed(comm_, local, camera(index), options_);
-  on_rank0(comm_, rank_, png_dir_ + ": image write failed",
-           [&] { write_image_png((fs::path(png_dir_) / frame_png_name(index)).string(), image); });
+  parallel::on_rank0(comm_, png_dir_ + ": image write failed", [&] {
+    write_image_png((fs::path(png_dir_) / frame_png_name(index)).string(), image);
+  });
   ++images_;
 }
 
@@ -132,8 +112,8 @@ void RunRenderer::finish(double frame_interval) {
   const double fps = std::clamp(frame_interval > 0 ? 1.0 / frame_interval : 60.0, 1.0, 60.0);
   const std::string mp4 = (fs::path(out_dir_) / "render.mp4").string();
   // assemble_mp4 notes itself what it wrote, or that ffmpeg is missing.
-  on_rank0(comm_, rank_, mp4 + ": video assembly failed",
-           [&] { assemble_mp4(png_dir_, fps, mp4); });
+  parallel::on_rank0(comm_, mp4 + ": video assembly failed",
+                     [&] { assemble_mp4(png_dir_, fps, mp4); });
 }
 
 }  // namespace gen4d::gaussians

@@ -398,15 +398,7 @@ void Solver::g2p(double t, double dt) {
     double* xp = &p_.x[3 * i];
     const double* v = &p_.v[3 * i];
     for (int d = 0; d < 3; ++d) xp[d] += dt * v[d];
-    // F <- (I + dt C) F
-    const double* Cm = &p_.C[9 * i];
-    double* F = &p_.F[9 * i];
-    double G[9];
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c)
-        G[3 * r + c] = F[3 * r + c] + dt * (Cm[3 * r + 0] * F[c] + Cm[3 * r + 1] * F[3 + c] +
-                                            Cm[3 * r + 2] * F[6 + c]);
-    std::copy(G, G + 9, F);
+    advance_deformation(&p_.C[9 * i], dt, &p_.F[9 * i]);
   }
 }
 

@@ -125,14 +125,7 @@ void advance_splats(Particles& p, const SplatLayout& layout, double dt, Covarian
     if (p.flag[i] & 1) continue;
     const double* Cm = &p.C[9 * i];
     double* e = &p.extra[static_cast<std::size_t>(W) * i];
-    // F_tot <- (I + dt C) F_tot, in the solver's order of operations for its F.
-    double* F = e + SplatLayout::kF;
-    double G[9];
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c)
-        G[3 * r + c] = F[3 * r + c] + dt * (Cm[3 * r + 0] * F[c] + Cm[3 * r + 1] * F[3 + c] +
-                                            Cm[3 * r + 2] * F[6 + c]);
-    std::copy(G, G + 9, F);
+    advance_deformation(Cm, dt, e + SplatLayout::kF);  // as the solver advances its F
     if (mode == CovarianceUpdate::Rate) {
       std::array<double, 9> L;
       std::copy_n(Cm, 9, L.begin());
