@@ -1,0 +1,1088 @@
+// PhysGaussian configs (utils/decode_param.py, gs_simulation.py, mpm_solver_warp/ of the
+// PhysGaussian release) read exactly and converted to gen4d decks. Where the paper and the code
+// differ, the code is followed.
+//
+// Reading. Every key decode_param.py reads is accepted with its default; any other key is an
+// error (decode_param silently ignores unknown keys, so a typo would change a run unnoticed).
+// Defaults that decode_param leaves to MPM_Simulator_WARP are the solver's: yield_stress 0,
+// hardening 0 (off), xi 0, friction_angle 25, plastic_viscosity 0, softening 0.1,
+// rpic_damping 0, grid_v_damping_scale 1.1 (no damping). Values PhysGaussian rejects are
+// errors here too (nu outside [0, 0.5], unknown material / boundary type, a missing required
+// boundary key, rotation lists of unequal length or an axis outside 0..2, sim_area without 6
+// numbers, a sticky surface with friction). Differences of the reader:
+// - g absent: decode_param's default is the scalar 9.8, which the solver indexes as a vector
+//   and fails on; gen4d takes (0, 0, -9.8).
+// - additional_material_params entries take only point, size, E, nu, density (the only keys
+//   the solver reads from them).
+// - surface must be sticky, slip, cut or separate (PhysGaussian turns any other word into
+//   separate).
+// - release_particles_sequentially's normal must pick one axis (PhysGaussian takes the last
+//   non-zero component).
+// - particle_filling accepts max_particles_per_cell as well as PhysGaussian's spelling
+//   max_partciels_per_cell (not both).
+//
+// Preprocessing (gs_simulation.py): opacity > opacity_threshold (strict); the rotations of
+// rotation_degree / rotation_axis in list order (exact pi; PhysGaussian uses 3.1415926);
+// the crop to sim_area, strictly inside, on the rotated positions; the selection scaled about
+// its bounding box's centre c so that its longest side is `scale`, and shifted to (1, 1, 1):
+// sim = s (R x - c) + 1 with s = scale / longest side. Covariances follow (s^2 R A R^T). The
+// harmonics rotate with R here; PhysGaussian instead maps positions and covariances back to the
+// trained space for rendering, which shows the same colours. The unselected Gaussians are
+// mapped by the same map (PhysGaussian renders them in the trained space).
+//
+// Deck. The deck runs in simulation space: [mpm] lo = (0, 0, 0), hi = grid_lim (PhysGaussian's
+// grid has its nodes at i dx for i < n_grid, so its box ends one cell short of grid_lim),
+// domain.voxel_size = grid_lim / n_grid, mpm.substep = "fixed" (PhysGaussian's substeps never
+// adapt). simulation.dt = substep_dt, end_time = frame_dt frame_num, output.frame_interval =
+// frame_dt: gen4d rounds frame_dt / substep_dt to whole substeps, PhysGaussian truncates
+// (int(0.04 / 2e-5) = 1999). simulation.gravity = g.
+// [[geometry]] type "splats": the trained PLY with scale s, rotate_axis / rotate_degrees the
+// axis and angle of the composite R, translate 1 - s c, and opacity_threshold; or, for a PLY
+// written from the preprocessed selection, that file untransformed (the only way to honour
+// sim_area). gen4d keeps opacity == threshold, PhysGaussian drops it.
+// Materials (E -> youngs_modulus, nu -> poisson_ratio, density):
+// - jelly -> fixed_corotated.
+// - metal -> von_mises. PhysGaussian yields when |dev tau| > yield_stress, gen4d when
+//   |dev tau| > sqrt(2/3) sigma_y: yield_stress -> sqrt(3/2) yield_stress. With hardening = 1
+//   PhysGaussian raises its yield_stress by 2 mu xi delta_gamma after each return, gen4d's
+//   linear hardening raises sqrt(2/3) sigma_y by (2/3) H delta_gamma: hardening -> 3 mu xi
+//   (mu = E / (2 (1 + nu))), applied inside gen4d's consistent return rather than after it.
+// - sand -> drucker_prager with friction_angle (the same cone slope
+//   alpha = sqrt(2/3) 2 sin(phi) / (3 - sin(phi))) and no cohesion. PhysGaussian gives sand
+//   particles uniform volumes; gen4d's splat particles share their cell's volume.
+// - foam (PhysGaussian's viscoplastic paste) -> herschel_bulkley with flow_index 1:
+//   PhysGaussian yields at |s| > sqrt(2/3) yield_stress, gen4d at |s| > sqrt(2) tau_y:
+//   yield_stress -> yield_stress / sqrt(3); plastic_viscosity eta -> consistency eta / 2.
+//   PhysGaussian relaxes with mu tr(b) / 3 in place of mu.
+// - plasticine -> von_mises as metal; its softening (yield stress lowered by softening times
+//   the plastic strain increment, the material losing all stiffness at zero yield stress) has
+//   no gen4d key, and PhysGaussian's plasticine stress is fixed corotated, gen4d's von_mises
+//   StVK-Hencky.
+// - snow -> "snow" with E, nu, density. PhysGaussian has no snow return mapping and computes
+//   no stress for it (its snow is stress-free); gen4d's is a snow model.
+// additional_material_params, rpic_damping != 0, grid_v_damping_scale < 1, particle_filling
+// and pic_damping have no gen4d key: each present one is listed in the notes.
+// Boundary conditions ([[boundary]]; start_time -> start, end_time -> end, a start before 0 is
+// 0, an entry that never acts is left out with a note):
+// - cuboid -> cuboid, lo / hi = point -/+ size, velocity. PhysGaussian moves the box with its
+//   velocity and, with reset = 1, zeroes every grid velocity for 15 substeps after end_time;
+//   gen4d's box is fixed and has no reset.
+// - particle_impulse -> particle_impulse over point -/+ size (default (1,1,1) -/+ (1,1,1)),
+//   end = start + num_dt substep_dt. PhysGaussian gives every particle in the box the velocity
+//   change force dt / m_p; gen4d shares a total force by mass. The total is force times the
+//   number of selected Gaussians in the box at rest (the same accelerations when the
+//   particles' masses are equal).
+// - bounding_box -> bounding_box with mpm.boundary_layers 3 (PhysGaussian's padding). Without
+//   one PhysGaussian has no walls: the deck sets mpm.boundary_layers = 0.
+// - enforce_particle_translation -> enforce_particle_translation, lo / hi = point -/+ size.
+// - surface_collider -> surface_collider with point, normal, surface, friction. PhysGaussian
+//   computes the slip / separate velocity and then stores zero (every non-cut collider
+//   sticks); gen4d keeps slip and separate as written. "cut" (a hard-coded z band) is left out.
+// - release_particles_sequentially -> release_particles_sequentially with normal the axis
+//   pointing from start_position to end_position and layers = num_layers (PhysGaussian
+//   overrides num_layers with 50). PhysGaussian holds slabs of the span
+//   |x - end_position| < |start_position - end_position| and releases layer i at
+//   end_time (i + 1) / 50; gen4d layers the object's extent along the normal and releases
+//   layer k at start + (end - start) k / layers.
+// - enforce_particle_velocity_rotation -> enforce_particle_velocity_rotation with
+//   half_height / radius, angular_velocity = -rotation_scale n and velocity = translation_scale
+//   n (n the unit normal; PhysGaussian's frame (h1, h2 = h1 x n) turns about -n). PhysGaussian
+//   divides by the distance to the axis (NaN on it); gen4d's rigid field is defined there.
+// PhysGaussian selects the particles of particle conditions once, at rest; gen4d at every
+// substep.
+// Camera: default_camera_index < 0 -> [render] camera "orbit" in simulation space: center
+// mpm_space_viewpoint_center, up mpm_space_vertical_upward_axis, radius s init_radius. Its
+// azimuth 0 lies along R h1 with h1 the Gram-Schmidt of (1, 1, 1) against the trained-space
+// vertical, and grows clockwise about up (gen4d's grows counter-clockwise): azimuth ->
+// phi0 - init_azimuthm, phi0 the angle of R h1 in gen4d's orbit frame. With move_camera,
+// PhysGaussian's image k (the state after k + 1 frames) uses the view of frame k; gen4d's
+// frame k + 1 shows that state, so the deck starts one step back: azimuth + delta_a,
+// elevation - delta_e, s (init_radius - delta_r), d_azimuth = -delta_a, d_elevation =
+// delta_e, d_radius = s delta_r. default_camera_index >= 0 (a cameras.json view in the
+// trained space) and show_hint are not honoured; the deck's camera then frames the object.
+#include "gaussians/PhysGaussianConfig.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <set>
+#include <utility>
+
+#include "core/Error.hpp"
+#include "gaussians/DeckSplats.hpp"
+#include "gaussians/Json.hpp"
+
+namespace gen4d::gaussians {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+//! Typed access to a config's values; every failure names the file, line and key.
+class Reader {
+ public:
+  explicit Reader(std::string source) : source_(std::move(source)) {}
+
+  [[noreturn]] void fail(int line, const std::string& key, const std::string& message) const {
+    throw InputError(fmt::format("{}:{}: key '{}': {}", source_, line, key, message));
+  }
+  void check(bool ok, const JsonValue& v, const std::string& key, const std::string& msg) const {
+    if (!ok) fail(v.line(), key, msg);
+  }
+
+  double number(const JsonValue& v, const std::string& key) const {
+    if (!v.is_number())
+      fail(v.line(), key, fmt::format("expected a number, got {}", json_type_name(v.type())));
+    return v.as_number();
+  }
+  long integer(const JsonValue& v, const std::string& key) const {
+    if (!v.is_number() || v.as_number() != std::floor(v.as_number()) ||
+        std::fabs(v.as_number()) > 2147483647.0)
+      fail(v.line(), key, "expected an integer");
+    return static_cast<long>(v.as_number());
+  }
+  bool boolean(const JsonValue& v, const std::string& key) const {
+    if (!v.is_bool())
+      fail(v.line(), key, fmt::format("expected true or false, got {}", json_type_name(v.type())));
+    return v.as_bool();
+  }
+  const std::string& string(const JsonValue& v, const std::string& key) const {
+    if (!v.is_string())
+      fail(v.line(), key, fmt::format("expected a string, got {}", json_type_name(v.type())));
+    return v.as_string();
+  }
+  template <std::size_t N>
+  std::array<double, N> numbers(const JsonValue& v, const std::string& key) const {
+    const std::string what = fmt::format("expected an array of {} numbers", N);
+    if (!v.is_array() || v.items().size() != N) fail(v.line(), key, what);
+    std::array<double, N> out{};
+    for (std::size_t i = 0; i < N; ++i) {
+      if (!v.items()[i].is_number()) fail(v.items()[i].line(), key, what);
+      out[i] = v.items()[i].as_number();
+    }
+    return out;
+  }
+  PgVec3 vec3(const JsonValue& v, const std::string& key) const { return numbers<3>(v, key); }
+  const std::vector<JsonValue>& array(const JsonValue& v, const std::string& key) const {
+    if (!v.is_array())
+      fail(v.line(), key, fmt::format("expected an array, got {}", json_type_name(v.type())));
+    return v.items();
+  }
+  void object(const JsonValue& v, const std::string& key) const {
+    if (!v.is_object())
+      fail(v.line(), key, fmt::format("expected an object, got {}", json_type_name(v.type())));
+  }
+
+ private:
+  std::string source_;
+};
+
+std::string joined(const std::vector<std::string>& items) {
+  std::string out;
+  for (const std::string& item : items) out += (out.empty() ? "" : ", ") + item;
+  return out;
+}
+
+bool nonzero(const PgVec3& v) {
+  return v[0] != 0 || v[1] != 0 || v[2] != 0;
+}
+
+//! Keys each boundary type takes (besides "type") and which of them are required.
+struct BoundaryKeys {
+  std::vector<std::string> allowed;
+  std::vector<std::string> required;
+};
+
+BoundaryKeys boundary_keys(const std::string& type) {
+  if (type == "cuboid")
+    return {{"point", "size", "velocity", "start_time", "end_time", "reset"},
+            {"point", "size", "velocity"}};
+  if (type == "particle_impulse")
+    return {{"force", "num_dt", "point", "size", "start_time"}, {"force"}};
+  if (type == "bounding_box") return {{}, {}};
+  if (type == "enforce_particle_translation") {
+    std::vector<std::string> k = {"point", "size", "velocity", "start_time", "end_time"};
+    return {k, k};
+  }
+  if (type == "surface_collider") {
+    std::vector<std::string> k = {"point",    "normal",     "surface",
+                                  "friction", "start_time", "end_time"};
+    return {k, k};
+  }
+  if (type == "release_particles_sequentially") {
+    std::vector<std::string> k = {"normal",     "start_position", "end_position",
+                                  "num_layers", "start_time",     "end_time"};
+    return {k, k};
+  }
+  std::vector<std::string> k = {
+      "point",      "normal",  "half_height_and_radius", "rotation_scale", "translation_scale",
+      "start_time", "end_time"};  // enforce_particle_velocity_rotation
+  return {k, k};
+}
+
+PhysGaussianBoundary read_boundary(const Reader& r, const JsonValue& v, std::size_t index) {
+  const std::string base = fmt::format("boundary_conditions[{}]", index);
+  r.object(v, base);
+  PhysGaussianBoundary b;
+  b.line = v.line();
+  const JsonValue* type = v.find("type");
+  if (!type) r.fail(v.line(), base + ".type", "is required");
+  b.type = r.string(*type, base + ".type");
+  static const std::set<std::string> kTypes = {"cuboid",
+                                               "particle_impulse",
+                                               "bounding_box",
+                                               "enforce_particle_translation",
+                                               "surface_collider",
+                                               "release_particles_sequentially",
+                                               "enforce_particle_velocity_rotation"};
+  if (!kTypes.count(b.type))
+    r.fail(type->line(), base + ".type",
+           fmt::format("unknown boundary condition type '{}' (known: cuboid, particle_impulse, "
+                       "bounding_box, enforce_particle_translation, surface_collider, "
+                       "release_particles_sequentially, enforce_particle_velocity_rotation)",
+                       b.type));
+  const BoundaryKeys keys = boundary_keys(b.type);
+  for (const auto& [key, value] : v.members()) {
+    if (key == "type") continue;
+    if (std::find(keys.allowed.begin(), keys.allowed.end(), key) == keys.allowed.end())
+      r.fail(value.line(), base + "." + key,
+             fmt::format("unknown key for type '{}'{}", b.type,
+                         keys.allowed.empty() ? std::string(" (it takes none)")
+                                              : " (known: " + joined(keys.allowed) + ")"));
+  }
+  for (const std::string& key : keys.required)
+    if (!v.find(key))
+      r.fail(v.line(), base + "." + key, fmt::format("is required by type '{}'", b.type));
+  if (b.type == "cuboid") b.end_time = 1e3;
+  for (const auto& [key, value] : v.members()) {
+    const std::string name = base + "." + key;
+    if (key == "point") b.point = r.vec3(value, name);
+    if (key == "size") b.size = r.vec3(value, name);
+    if (key == "velocity") b.velocity = r.vec3(value, name);
+    if (key == "force") b.force = r.vec3(value, name);
+    if (key == "normal") {
+      b.normal = r.vec3(value, name);
+      r.check(nonzero(b.normal), value, name, "must not be the zero vector");
+    }
+    if (key == "start_time") b.start_time = r.number(value, name);
+    if (key == "end_time") b.end_time = r.number(value, name);
+    if (key == "reset") b.reset = static_cast<int>(r.integer(value, name));
+    if (key == "num_dt") {
+      b.num_dt = static_cast<int>(r.integer(value, name));
+      r.check(b.num_dt >= 0, value, name, fmt::format("must be >= 0, got {}", b.num_dt));
+    }
+    if (key == "surface") {
+      b.surface = r.string(value, name);
+      r.check(b.surface == "sticky" || b.surface == "slip" || b.surface == "separate" ||
+                  b.surface == "cut",
+              value, name,
+              fmt::format("expected \"sticky\", \"slip\", \"separate\" or \"cut\", got \"{}\"",
+                          b.surface));
+    }
+    if (key == "friction") {
+      b.friction = r.number(value, name);
+      r.check(b.friction >= 0, value, name, fmt::format("must be >= 0, got {}", b.friction));
+    }
+    if (key == "start_position") b.start_position = r.number(value, name);
+    if (key == "end_position") b.end_position = r.number(value, name);
+    if (key == "num_layers") {
+      b.num_layers = static_cast<int>(r.integer(value, name));
+      r.check(b.num_layers >= 1, value, name, fmt::format("must be >= 1, got {}", b.num_layers));
+    }
+    if (key == "half_height_and_radius") {
+      b.half_height_and_radius = r.numbers<2>(value, name);
+      r.check(b.half_height_and_radius[0] > 0 && b.half_height_and_radius[1] > 0, value, name,
+              "half height and radius must be > 0");
+    }
+    if (key == "rotation_scale") b.rotation_scale = r.number(value, name);
+    if (key == "translation_scale") b.translation_scale = r.number(value, name);
+  }
+  if (b.type == "surface_collider" && b.surface == "sticky" && b.friction != 0)
+    r.fail(v.find("friction")->line(), base + ".friction",
+           "must be 0 on a sticky surface (PhysGaussian rejects it)");
+  if (b.type == "release_particles_sequentially") {
+    const int axes = (b.normal[0] != 0) + (b.normal[1] != 0) + (b.normal[2] != 0);
+    r.check(axes == 1, *v.find("normal"), base + ".normal",
+            "must have exactly one non-zero component (the axis of the layers)");
+    r.check(b.start_position != b.end_position, *v.find("end_position"), base + ".end_position",
+            "must differ from start_position");
+  }
+  return b;
+}
+
+PhysGaussianMaterialBox read_material_box(const Reader& r, const JsonValue& v, std::size_t index,
+                                          double density) {
+  const std::string base = fmt::format("additional_material_params[{}]", index);
+  r.object(v, base);
+  PhysGaussianMaterialBox m;
+  m.line = v.line();
+  m.density = density;
+  for (const char* key : {"point", "size", "E", "nu"})
+    if (!v.find(key)) r.fail(v.line(), base + "." + key, "is required");
+  for (const auto& [key, value] : v.members()) {
+    const std::string name = base + "." + key;
+    if (key == "point") {
+      m.point = r.vec3(value, name);
+    } else if (key == "size") {
+      m.size = r.vec3(value, name);
+    } else if (key == "E") {
+      m.E = r.number(value, name);
+    } else if (key == "nu") {
+      m.nu = r.number(value, name);
+    } else if (key == "density") {
+      m.density = r.number(value, name);
+    } else {
+      r.fail(value.line(), name, "unknown key (known: point, size, E, nu, density)");
+    }
+  }
+  return m;
+}
+
+PhysGaussianFilling read_filling(const Reader& r, const JsonValue& v, int n_grid) {
+  r.object(v, "particle_filling");
+  PhysGaussianFilling f;
+  f.n_grid = 4 * n_grid;
+  const JsonValue* misspelled = v.find("max_partciels_per_cell");
+  const JsonValue* spelled = v.find("max_particles_per_cell");
+  if (misspelled && spelled)
+    r.fail(spelled->line(), "particle_filling.max_particles_per_cell",
+           "give either max_partciels_per_cell (PhysGaussian's spelling) or "
+           "max_particles_per_cell, not both");
+  for (const auto& [key, value] : v.members()) {
+    const std::string name = "particle_filling." + key;
+    if (key == "n_grid") {
+      f.n_grid = static_cast<int>(r.integer(value, name));
+      r.check(f.n_grid >= 1, value, name, fmt::format("must be >= 1, got {}", f.n_grid));
+    } else if (key == "density_threshold") {
+      f.density_threshold = r.number(value, name);
+    } else if (key == "search_threshold") {
+      f.search_threshold = r.number(value, name);
+    } else if (key == "max_particles_num") {
+      f.max_particles_num = r.integer(value, name);
+      r.check(f.max_particles_num >= 0, value, name, "must be >= 0");
+    } else if (key == "max_partciels_per_cell" || key == "max_particles_per_cell") {
+      f.max_particles_per_cell = static_cast<int>(r.integer(value, name));
+      r.check(f.max_particles_per_cell >= 1, value, name, "must be >= 1");
+    } else if (key == "search_exclude_direction") {
+      f.search_exclude_direction = static_cast<int>(r.integer(value, name));
+    } else if (key == "ray_cast_direction") {
+      f.ray_cast_direction = static_cast<int>(r.integer(value, name));
+    } else if (key == "boundary") {
+      if (!value.is_null()) f.boundary = r.numbers<6>(value, name);
+    } else if (key == "smooth") {
+      f.smooth = r.boolean(value, name);
+    } else if (key == "visualize") {
+      f.visualize = r.boolean(value, name);
+    } else {
+      r.fail(value.line(), name,
+             "unknown key (known: n_grid, density_threshold, search_threshold, "
+             "max_particles_num, max_partciels_per_cell, max_particles_per_cell, "
+             "search_exclude_direction, ray_cast_direction, boundary, smooth, visualize)");
+    }
+  }
+  return f;
+}
+
+const char* const kTopKeys[] = {"material",
+                                "grid_lim",
+                                "n_grid",
+                                "nu",
+                                "E",
+                                "yield_stress",
+                                "hardening",
+                                "xi",
+                                "friction_angle",
+                                "plastic_viscosity",
+                                "g",
+                                "density",
+                                "rpic_damping",
+                                "pic_damping",
+                                "softening",
+                                "opacity_threshold",
+                                "grid_v_damping_scale",
+                                "additional_material_params",
+                                "boundary_conditions",
+                                "substep_dt",
+                                "frame_dt",
+                                "frame_num",
+                                "rotation_degree",
+                                "rotation_axis",
+                                "sim_area",
+                                "scale",
+                                "particle_filling",
+                                "mpm_space_viewpoint_center",
+                                "mpm_space_vertical_upward_axis",
+                                "default_camera_index",
+                                "show_hint",
+                                "init_azimuthm",
+                                "init_elevation",
+                                "init_radius",
+                                "delta_a",
+                                "delta_e",
+                                "delta_r",
+                                "move_camera"};
+
+std::array<double, 9> matmul(const std::array<double, 9>& a, const std::array<double, 9>& b) {
+  std::array<double, 9> c{};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      for (int k = 0; k < 3; ++k) c[3 * i + j] += a[3 * i + k] * b[3 * k + j];
+  return c;
+}
+
+PgVec3 mat_vec(const std::array<double, 9>& m, const PgVec3& v) {
+  PgVec3 o{};
+  for (int i = 0; i < 3; ++i) o[i] = m[3 * i] * v[0] + m[3 * i + 1] * v[1] + m[3 * i + 2] * v[2];
+  return o;
+}
+
+PgVec3 mat_tvec(const std::array<double, 9>& m, const PgVec3& v) {
+  PgVec3 o{};
+  for (int i = 0; i < 3; ++i) o[i] = m[i] * v[0] + m[3 + i] * v[1] + m[6 + i] * v[2];
+  return o;
+}
+
+double dot(const PgVec3& a, const PgVec3& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+PgVec3 cross(const PgVec3& a, const PgVec3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+PgVec3 normalized(const PgVec3& v) {
+  const double n = std::sqrt(dot(v, v));
+  return {v[0] / n, v[1] / n, v[2] / n};
+}
+
+//! Axis (unit) and angle (degrees, in [0, 180]) of a rotation matrix; (0, 0, 1) and 0 for I.
+std::pair<PgVec3, double> axis_angle(const std::array<double, 9>& R) {
+  // Quaternion by Shepperd's method, then angle = 2 atan2(|v|, w) with w >= 0.
+  const double tr = R[0] + R[4] + R[8];
+  double w, x, y, z;
+  if (tr >= R[0] && tr >= R[4] && tr >= R[8]) {
+    const double s = 2 * std::sqrt(1 + tr);
+    w = s / 4;
+    x = (R[7] - R[5]) / s;
+    y = (R[2] - R[6]) / s;
+    z = (R[3] - R[1]) / s;
+  } else if (R[0] >= R[4] && R[0] >= R[8]) {
+    const double s = 2 * std::sqrt(1 + R[0] - R[4] - R[8]);
+    w = (R[7] - R[5]) / s;
+    x = s / 4;
+    y = (R[1] + R[3]) / s;
+    z = (R[2] + R[6]) / s;
+  } else if (R[4] >= R[8]) {
+    const double s = 2 * std::sqrt(1 + R[4] - R[0] - R[8]);
+    w = (R[2] - R[6]) / s;
+    x = (R[1] + R[3]) / s;
+    y = s / 4;
+    z = (R[5] + R[7]) / s;
+  } else {
+    const double s = 2 * std::sqrt(1 + R[8] - R[0] - R[4]);
+    w = (R[3] - R[1]) / s;
+    x = (R[2] + R[6]) / s;
+    y = (R[5] + R[7]) / s;
+    z = s / 4;
+  }
+  if (w < 0) {
+    w = -w;
+    x = -x;
+    y = -y;
+    z = -z;
+  }
+  const double vn = std::sqrt(x * x + y * y + z * z);
+  if (!(vn > 1e-15)) return {{0, 0, 1}, 0.0};
+  return {{x / vn, y / vn, z / vn}, 2 * std::atan2(vn, w) * 180 / kPi};
+}
+
+SplatSet subset(const SplatSet& s, const std::vector<std::size_t>& idx) {
+  SplatSet o;
+  o.sh_degree = s.sh_degree;
+  const std::size_t K3 = 3 * static_cast<std::size_t>(s.coefficients());
+  for (std::size_t i : idx) {
+    o.position.insert(o.position.end(), &s.position[3 * i], &s.position[3 * i] + 3);
+    o.scale.insert(o.scale.end(), &s.scale[3 * i], &s.scale[3 * i] + 3);
+    o.rotation.insert(o.rotation.end(), &s.rotation[4 * i], &s.rotation[4 * i] + 4);
+    o.opacity.push_back(s.opacity[i]);
+    o.sh.insert(o.sh.end(), &s.sh[K3 * i], &s.sh[K3 * i] + K3);
+  }
+  return o;
+}
+
+// ---- deck text ----
+
+std::string num(double v) {
+  return fmt::format("{}", v);
+}
+
+std::string vec(const PgVec3& v) {
+  return fmt::format("[{}, {}, {}]", num(v[0]), num(v[1]), num(v[2]));
+}
+
+std::string quoted(const std::string& s) {
+  std::string out = "\"";
+  for (const char ch : s) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (ch == '"' || ch == '\\') {
+      out += '\\';
+      out += ch;
+    } else if (c < 0x20 || c == 0x7f) {
+      out += fmt::format("\\u{:04X}", static_cast<unsigned>(c));
+    } else {
+      out += ch;
+    }
+  }
+  return out + "\"";
+}
+
+PgVec3 add(const PgVec3& a, const PgVec3& b, double f) {
+  return {a[0] + f * b[0], a[1] + f * b[1], a[2] + f * b[2]};
+}
+
+}  // namespace
+
+PhysGaussianParams read_physgaussian_config(const std::string& path) {
+  const JsonValue root = read_json_file(path);
+  const Reader r(path);
+  if (!root.is_object())
+    r.fail(root.line(), "(top level)",
+           fmt::format("expected an object, got {}", json_type_name(root.type())));
+  PhysGaussianParams p;
+  p.source = path;
+  for (const auto& [key, value] : root.members())
+    if (std::find(std::begin(kTopKeys), std::end(kTopKeys), key) == std::end(kTopKeys))
+      r.fail(value.line(), key, "unknown key (not read by PhysGaussian's decode_param)");
+  // Keys that others' defaults depend on first.
+  if (const JsonValue* v = root.find("n_grid")) {
+    p.n_grid = static_cast<int>(r.integer(*v, "n_grid"));
+    r.check(p.n_grid >= 1, *v, "n_grid", fmt::format("must be >= 1, got {}", p.n_grid));
+  }
+  if (const JsonValue* v = root.find("density")) {
+    p.density = r.number(*v, "density");
+    r.check(p.density > 0, *v, "density", fmt::format("must be > 0, got {}", p.density));
+  }
+  const JsonValue* axes = nullptr;
+  const JsonValue* degrees = nullptr;
+  for (const auto& [key, value] : root.members()) {
+    const JsonValue& v = value;
+    if (key == "material") {
+      p.material = r.string(v, key);
+      static const std::set<std::string> kMaterials = {"jelly", "metal", "sand",
+                                                       "foam",  "snow",  "plasticine"};
+      r.check(kMaterials.count(p.material), v, key,
+              fmt::format("unknown material '{}' (known: jelly, metal, sand, foam, snow, "
+                          "plasticine)",
+                          p.material));
+    } else if (key == "grid_lim") {
+      p.grid_lim = r.number(v, key);
+      r.check(p.grid_lim > 0, v, key, fmt::format("must be > 0, got {}", p.grid_lim));
+    } else if (key == "nu") {
+      p.nu = r.number(v, key);
+      r.check(p.nu >= 0 && p.nu <= 0.5, v, key, fmt::format("must be in [0, 0.5], got {}", p.nu));
+    } else if (key == "E") {
+      p.E = r.number(v, key);
+      r.check(p.E > 0, v, key, fmt::format("must be > 0, got {}", p.E));
+    } else if (key == "yield_stress") {
+      p.yield_stress = r.number(v, key);
+      p.has_yield_stress = true;
+    } else if (key == "hardening") {
+      p.hardening = static_cast<int>(r.integer(v, key));
+    } else if (key == "xi") {
+      p.xi = r.number(v, key);
+    } else if (key == "friction_angle") {
+      p.friction_angle = r.number(v, key);
+    } else if (key == "plastic_viscosity") {
+      p.plastic_viscosity = r.number(v, key);
+    } else if (key == "g") {
+      p.g = r.vec3(v, key);
+      p.has_g = true;
+    } else if (key == "rpic_damping") {
+      p.rpic_damping = r.number(v, key);
+    } else if (key == "pic_damping") {
+      p.pic_damping = r.number(v, key);
+    } else if (key == "softening") {
+      p.softening = r.number(v, key);
+    } else if (key == "opacity_threshold") {
+      p.opacity_threshold = r.number(v, key);
+    } else if (key == "grid_v_damping_scale") {
+      p.grid_v_damping_scale = r.number(v, key);
+    } else if (key == "additional_material_params") {
+      const auto& items = r.array(v, key);
+      for (std::size_t i = 0; i < items.size(); ++i)
+        p.additional_material_params.push_back(read_material_box(r, items[i], i, p.density));
+    } else if (key == "boundary_conditions") {
+      const auto& items = r.array(v, key);
+      for (std::size_t i = 0; i < items.size(); ++i)
+        p.boundary_conditions.push_back(read_boundary(r, items[i], i));
+    } else if (key == "substep_dt") {
+      p.substep_dt = r.number(v, key);
+      r.check(p.substep_dt > 0, v, key, fmt::format("must be > 0, got {}", p.substep_dt));
+    } else if (key == "frame_dt") {
+      p.frame_dt = r.number(v, key);
+      r.check(p.frame_dt > 0, v, key, fmt::format("must be > 0, got {}", p.frame_dt));
+    } else if (key == "frame_num") {
+      p.frame_num = static_cast<int>(r.integer(v, key));
+      r.check(p.frame_num >= 0, v, key, fmt::format("must be >= 0, got {}", p.frame_num));
+    } else if (key == "rotation_degree") {
+      degrees = &v;
+      for (const JsonValue& d : r.array(v, key)) p.rotation_degree.push_back(r.number(d, key));
+    } else if (key == "rotation_axis") {
+      axes = &v;
+      for (const JsonValue& a : r.array(v, key)) {
+        const long axis = r.integer(a, key);
+        r.check(axis >= 0 && axis <= 2, a, key,
+                fmt::format("axis must be 0, 1 or 2, got {}", axis));
+        p.rotation_axis.push_back(static_cast<int>(axis));
+      }
+    } else if (key == "sim_area") {
+      if (!v.is_null()) {
+        p.sim_area = r.numbers<6>(v, key);
+        for (int d = 0; d < 3; ++d)
+          r.check((*p.sim_area)[2 * d] < (*p.sim_area)[2 * d + 1], v, key,
+                  "each lower bound must be below its upper bound (x0, x1, y0, y1, z0, z1)");
+      }
+    } else if (key == "scale") {
+      p.scale = r.number(v, key);
+      r.check(p.scale > 0, v, key, fmt::format("must be > 0, got {}", p.scale));
+    } else if (key == "particle_filling") {
+      if (!v.is_null()) p.particle_filling = read_filling(r, v, p.n_grid);
+    } else if (key == "mpm_space_viewpoint_center") {
+      p.mpm_space_viewpoint_center = r.vec3(v, key);
+    } else if (key == "mpm_space_vertical_upward_axis") {
+      p.mpm_space_vertical_upward_axis = r.vec3(v, key);
+      r.check(nonzero(p.mpm_space_vertical_upward_axis), v, key, "must not be the zero vector");
+    } else if (key == "default_camera_index") {
+      p.default_camera_index = static_cast<int>(r.integer(v, key));
+    } else if (key == "show_hint") {
+      p.show_hint = r.boolean(v, key);
+    } else if (key == "move_camera") {
+      p.move_camera = r.boolean(v, key);
+    } else if (key == "init_azimuthm" || key == "init_elevation" || key == "init_radius" ||
+               key == "delta_a" || key == "delta_e" || key == "delta_r") {
+      std::optional<double>& slot = key == "init_azimuthm"    ? p.init_azimuthm
+                                    : key == "init_elevation" ? p.init_elevation
+                                    : key == "init_radius"    ? p.init_radius
+                                    : key == "delta_a"        ? p.delta_a
+                                    : key == "delta_e"        ? p.delta_e
+                                                              : p.delta_r;
+      if (!v.is_null()) slot = r.number(v, key);
+    }
+  }
+  if (p.rotation_degree.size() != p.rotation_axis.size()) {
+    const JsonValue* at = axes ? axes : degrees;
+    r.fail(at->line(), "rotation_axis",
+           fmt::format("has {} entries but rotation_degree has {}", p.rotation_axis.size(),
+                       p.rotation_degree.size()));
+  }
+  if (p.default_camera_index < 0 && !p.show_hint) {
+    // PhysGaussian asserts these for its orbit camera.
+    const std::pair<const char*, bool> needed[] = {
+        {"init_azimuthm", p.init_azimuthm.has_value()},
+        {"init_elevation", p.init_elevation.has_value()},
+        {"init_radius", p.init_radius.has_value()},
+        {"delta_a", !p.move_camera || p.delta_a.has_value()},
+        {"delta_e", !p.move_camera || p.delta_e.has_value()},
+        {"delta_r", !p.move_camera || p.delta_r.has_value()}};
+    for (const auto& [key, present] : needed)
+      if (!present)
+        r.fail(root.find("default_camera_index")->line(), key,
+               "is required by the orbit camera (default_camera_index < 0)");
+  }
+  return p;
+}
+
+PgVec3 PhysGaussianSimMap::to_sim(const PgVec3& world) const {
+  const PgVec3 rw = mat_vec(rotation, world);
+  PgVec3 o{};
+  for (int d = 0; d < 3; ++d) o[d] = scale * (rw[d] - center[d]) + 1.0;
+  return o;
+}
+
+PgVec3 PhysGaussianSimMap::to_world(const PgVec3& sim) const {
+  PgVec3 u{};
+  for (int d = 0; d < 3; ++d) u[d] = (sim[d] - 1.0) / scale + center[d];
+  return mat_tvec(rotation, u);
+}
+
+PgVec3 PhysGaussianSimMap::translation() const {
+  PgVec3 t{};
+  for (int d = 0; d < 3; ++d) t[d] = 1.0 - scale * center[d];
+  return t;
+}
+
+std::array<double, 9> physgaussian_rotation(const PhysGaussianParams& params) {
+  std::array<double, 9> R{1, 0, 0, 0, 1, 0, 0, 0, 1};
+  const std::size_t n = std::min(params.rotation_degree.size(), params.rotation_axis.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    const double a = params.rotation_degree[i] * kPi / 180.0;
+    const double c = std::cos(a), s = std::sin(a);
+    std::array<double, 9> M{};
+    switch (params.rotation_axis[i]) {
+      case 0:
+        M = {1, 0, 0, 0, c, -s, 0, s, c};
+        break;
+      case 1:
+        M = {c, 0, s, 0, 1, 0, -s, 0, c};
+        break;
+      case 2:
+        M = {c, -s, 0, s, c, 0, 0, 0, 1};
+        break;
+      default:
+        throw InputError(fmt::format("{}: key 'rotation_axis': axis must be 0, 1 or 2, got {}",
+                                     params.source, params.rotation_axis[i]));
+    }
+    R = matmul(M, R);
+  }
+  return R;
+}
+
+PhysGaussianPreprocessed preprocess_physgaussian(const SplatSet& trained,
+                                                 const PhysGaussianParams& params) {
+  trained.check_sizes();
+  PhysGaussianPreprocessed out;
+  const std::array<double, 9> R = physgaussian_rotation(params);
+  PgVec3 lo{}, hi{};
+  lo.fill(std::numeric_limits<double>::infinity());
+  hi.fill(-std::numeric_limits<double>::infinity());
+  for (std::size_t i = 0; i < trained.size(); ++i) {
+    if (!(trained.opacity[i] > params.opacity_threshold)) continue;
+    const PgVec3 p = mat_vec(
+        R, {trained.position[3 * i], trained.position[3 * i + 1], trained.position[3 * i + 2]});
+    bool inside = true;
+    if (params.sim_area)
+      for (int d = 0; d < 3; ++d)
+        inside = inside && p[d] > (*params.sim_area)[2 * d] && p[d] < (*params.sim_area)[2 * d + 1];
+    if (!inside) {
+      out.rest_index.push_back(i);
+      continue;
+    }
+    out.selected_index.push_back(i);
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = std::min(lo[d], p[d]);
+      hi[d] = std::max(hi[d], p[d]);
+    }
+  }
+  if (out.selected_index.empty())
+    throw InputError(fmt::format("{}: no Gaussian is left to simulate (opacity_threshold {}{})",
+                                 params.source, params.opacity_threshold,
+                                 params.sim_area ? " and sim_area select none" : ""));
+  const double extent = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+  if (!(extent > 0))
+    throw InputError(
+        fmt::format("{}: the selected Gaussians have no extent, so key 'scale' cannot size them",
+                    params.source));
+  out.map.rotation = R;
+  out.map.scale = params.scale / extent;
+  for (int d = 0; d < 3; ++d) out.map.center[d] = 0.5 * (lo[d] + hi[d]);
+  const PgVec3 t = out.map.translation();
+  out.selected = subset(trained, out.selected_index);
+  out.rest = subset(trained, out.rest_index);
+  transform_splats(out.selected, out.map.scale, R, t);
+  if (out.rest.size()) transform_splats(out.rest, out.map.scale, R, t);
+  return out;
+}
+
+std::string physgaussian_to_deck(const PhysGaussianParams& p, const std::string& ply_path,
+                                 const PhysGaussianPreprocessed& pre, PlySpace space,
+                                 std::vector<std::string>* notes_out) {
+  std::vector<std::string> notes;
+  auto note = [&](std::string s) { notes.push_back(std::move(s)); };
+  auto fail = [&](const std::string& key, const std::string& msg) {
+    throw InputError(fmt::format("{}: key '{}': {}", p.source, key, msg));
+  };
+  if (p.frame_num < 1) fail("frame_num", "must be >= 1 for a run (nothing to simulate)");
+  const PhysGaussianSimMap& map = pre.map;
+  const double s = map.scale;
+  std::string d;  // the deck
+  d += fmt::format("# Converted from the PhysGaussian config {}\n", p.source);
+  d += "\n[simulation]\nname = \"physgaussian\"\n";
+  d += fmt::format("dt = {}\n", num(p.substep_dt));
+  d += fmt::format("end_time = {}\n", num(p.frame_dt * p.frame_num));
+  d += fmt::format("gravity = {}\n", vec(p.g));
+  if (!p.has_g)
+    note(
+        "g: absent; PhysGaussian's default (the scalar 9.8) makes its solver fail, gen4d uses "
+        "[0, 0, -9.8]");
+  const double steps = p.frame_dt / p.substep_dt;
+  if (static_cast<long>(steps) != std::lround(steps))
+    note(fmt::format(
+        "substep_dt: PhysGaussian runs int(frame_dt / substep_dt) = {} substeps per frame, "
+        "gen4d rounds frame_dt / dt to {}",
+        static_cast<long>(steps), std::lround(steps)));
+  d += fmt::format("\n[domain]\nvoxel_size = {}\n", num(p.grid_lim / p.n_grid));
+
+  d += "\n[[geometry]]\ntype = \"splats\"\n";
+  d += fmt::format("file = {}\n", quoted(ply_path));
+  if (space == PlySpace::Trained) {
+    const auto [axis, degrees] = axis_angle(map.rotation);
+    d += fmt::format("scale = {}\n", num(s));
+    d += fmt::format("translate = {}\n", vec(map.translation()));
+    d += fmt::format("rotate_axis = {}\n", vec(axis));
+    d += fmt::format("rotate_degrees = {}\n", num(degrees));
+    d += fmt::format("opacity_threshold = {}\n", num(p.opacity_threshold));
+    if (p.sim_area)
+      note(
+          "sim_area: a splats geometry has no crop key; this deck simulates every Gaussian of "
+          "the file (write the preprocessed selection with write_splats_ply and convert with "
+          "PlySpace::Simulation to honour the crop; the unselected Gaussians are then not "
+          "drawn)");
+    note(
+        "opacity_threshold: gen4d keeps a Gaussian whose opacity equals the threshold, "
+        "PhysGaussian drops it");
+  } else {
+    d += "opacity_threshold = 0\n";
+    if (p.sim_area && pre.rest.size())
+      note(
+          fmt::format("sim_area: the {} Gaussians outside it are not drawn (gen4d renders "
+                      "only the deck's geometry)",
+                      pre.rest.size()));
+  }
+
+  // Material.
+  const double mu = p.E / (2 * (1 + p.nu));
+  d += "\n[material]\n";
+  std::string model;
+  if (p.material == "jelly") model = "fixed_corotated";
+  if (p.material == "metal" || p.material == "plasticine") model = "von_mises";
+  if (p.material == "sand") model = "drucker_prager";
+  if (p.material == "foam") model = "herschel_bulkley";
+  if (p.material == "snow") model = "snow";
+  d += fmt::format("model = {}\n", quoted(model));
+  d += fmt::format("youngs_modulus = {}\n", num(p.E));
+  d += fmt::format("poisson_ratio = {}\n", num(p.nu));
+  d += fmt::format("density = {}\n", num(p.density));
+  if (p.nu >= 0.5) note("nu: 0.5 is accepted by PhysGaussian, gen4d needs nu < 0.5");
+  note(fmt::format("material: {} -> {}", p.material, model));
+  if (model == "von_mises") {
+    d += fmt::format("yield_stress = {}\n", num(std::sqrt(1.5) * p.yield_stress));
+    note(
+        fmt::format("yield_stress: PhysGaussian's |dev tau| bound {} -> uniaxial sigma_y = "
+                    "sqrt(3/2) x that = {}",
+                    num(p.yield_stress), num(std::sqrt(1.5) * p.yield_stress)));
+    if (p.hardening == 1) {
+      d += fmt::format("hardening = {}\n", num(3 * mu * p.xi));
+      note(fmt::format("hardening = 1, xi = {}: linear hardening modulus 3 mu xi = {} Pa",
+                       num(p.xi), num(3 * mu * p.xi)));
+    }
+    if (p.material == "plasticine")
+      note(
+          fmt::format("softening = {}: not honoured (gen4d's von_mises has no softening); "
+                      "PhysGaussian's plasticine stress is fixed corotated, gen4d's von_mises "
+                      "StVK-Hencky",
+                      num(p.softening)));
+  } else if (p.hardening == 1 || p.xi != 0) {
+    note("hardening / xi: only metal and plasticine use them");
+  }
+  if (model == "drucker_prager") {
+    d += fmt::format("friction_angle = {}\n", num(p.friction_angle));
+    note(
+        "sand: PhysGaussian gives sand particles uniform volumes, gen4d shares each cell's "
+        "volume among its Gaussians");
+  }
+  if (model == "herschel_bulkley") {
+    d += fmt::format("yield_stress = {}\n", num(p.yield_stress / std::sqrt(3.0)));
+    d += fmt::format("consistency = {}\n", num(p.plastic_viscosity / 2));
+    d += "flow_index = 1\n";
+    note(
+        "foam: yield_stress / sqrt(3) -> shear yield stress, plastic_viscosity / 2 -> "
+        "consistency (PhysGaussian relaxes with mu tr(b) / 3 in place of mu)");
+  }
+  if (model == "snow")
+    note(
+        "snow: PhysGaussian computes no stress for snow (no return mapping); gen4d's snow "
+        "model is used instead");
+  for (const auto& box : p.additional_material_params)
+    note(fmt::format(
+        "additional_material_params (line {}): not honoured (gen4d has one material "
+        "per deck): E {} nu {} density {} in {} -/+ {}",
+        box.line, num(box.E), num(box.nu), num(box.density), vec(box.point), vec(box.size)));
+  if (p.rpic_damping != 0)
+    note(fmt::format("rpic_damping = {}: not honoured (gen4d transfers with APIC)",
+                     num(p.rpic_damping)));
+  if (p.grid_v_damping_scale < 1)
+    note(fmt::format("grid_v_damping_scale = {}: not honoured (no grid damping key)",
+                     num(p.grid_v_damping_scale)));
+  if (p.pic_damping) note("pic_damping: read by PhysGaussian but used by none of its code");
+  if (p.particle_filling)
+    note(
+        "particle_filling: not honoured (gen4d's MPM has no internal filling of splat "
+        "objects; only the Gaussians are particles)");
+
+  // Solver and grid.
+  d += "\n[solver]\nmethod = \"mpm\"\n";
+  const bool walls =
+      std::any_of(p.boundary_conditions.begin(), p.boundary_conditions.end(),
+                  [](const PhysGaussianBoundary& b) { return b.type == "bounding_box"; });
+  d += "\n[mpm]\nlo = [0, 0, 0]\n";
+  d += fmt::format("hi = {}\n", vec({p.grid_lim, p.grid_lim, p.grid_lim}));
+  d += "substep = \"fixed\"\n";
+  d += fmt::format("boundary_layers = {}\n", walls ? 3 : 0);
+  if (!walls) note("bounding_box: absent, so no grid walls (mpm.boundary_layers = 0)");
+
+  d += fmt::format("\n[output]\nframe_interval = {}\n", num(p.frame_dt));
+
+  // Boundary conditions.
+  bool selection_note = false;
+  for (std::size_t i = 0; i < p.boundary_conditions.size(); ++i) {
+    const PhysGaussianBoundary& b = p.boundary_conditions[i];
+    const std::string where = fmt::format("boundary_conditions[{}] (line {})", i, b.line);
+    double start = std::max(0.0, b.start_time), end = b.end_time;
+    if (b.type == "particle_impulse") end = b.start_time + b.num_dt * p.substep_dt;
+    if (b.type == "bounding_box") {
+      d += "\n[[boundary]]\ntype = \"bounding_box\"\n";
+      continue;
+    }
+    if (!(end > start)) {
+      note(fmt::format("{}: {} never acts (end {} <= start {}); left out", where, b.type, num(end),
+                       num(start)));
+      continue;
+    }
+    std::string e = "\n[[boundary]]\n";
+    e += fmt::format("type = {}\n", quoted(b.type));
+    if (b.type == "cuboid" || b.type == "particle_impulse" ||
+        b.type == "enforce_particle_translation") {
+      e += fmt::format("lo = {}\n", vec(add(b.point, b.size, -1)));
+      e += fmt::format("hi = {}\n", vec(add(b.point, b.size, 1)));
+    }
+    if (b.type == "cuboid") {
+      e += fmt::format("velocity = {}\n", vec(b.velocity));
+      if (nonzero(b.velocity))
+        note(fmt::format("{}: PhysGaussian moves the cuboid with its velocity, gen4d's stays put",
+                         where));
+      if (b.reset == 1)
+        note(fmt::format("{}: reset = 1 (grid zeroed for 15 substeps after end_time) not honoured",
+                         where));
+    }
+    if (b.type == "enforce_particle_translation")
+      e += fmt::format("velocity = {}\n", vec(b.velocity));
+    if (b.type == "particle_impulse") {
+      long count = 0;
+      for (std::size_t k = 0; k < pre.selected.size(); ++k) {
+        bool in = true;
+        for (int a = 0; a < 3; ++a)
+          in = in && std::fabs(pre.selected.position[3 * k + a] - b.point[a]) < b.size[a];
+        count += in;
+      }
+      if (count == 0) {
+        note(fmt::format("{}: particle_impulse selects no Gaussian; left out", where));
+        continue;
+      }
+      e += fmt::format("force = {}\n",
+                       vec({b.force[0] * count, b.force[1] * count, b.force[2] * count}));
+      note(
+          fmt::format("{}: particle_impulse force per particle x {} Gaussians in the box = total "
+                      "force shared by mass (PhysGaussian: force / m_p on each)",
+                      where, count));
+    }
+    if (b.type == "surface_collider") {
+      if (b.surface == "cut") {
+        note(
+            fmt::format("{}: surface \"cut\" (PhysGaussian's hard-coded z band) not honoured; "
+                        "left out",
+                        where));
+        continue;
+      }
+      e += fmt::format("point = {}\n", vec(b.point));
+      e += fmt::format("normal = {}\n", vec(normalized(b.normal)));
+      e += fmt::format("surface = {}\n", quoted(b.surface));
+      e += fmt::format("friction = {}\n", num(b.friction));
+      if (b.surface != "sticky")
+        note(
+            fmt::format("{}: surface \"{}\" kept as written (PhysGaussian's collider zeroes the "
+                        "velocity of every node behind it)",
+                        where, b.surface));
+    }
+    if (b.type == "release_particles_sequentially") {
+      const int axis = b.normal[0] != 0 ? 0 : b.normal[1] != 0 ? 1 : 2;
+      PgVec3 n{0, 0, 0};
+      n[axis] = b.end_position > b.start_position ? 1 : -1;
+      e += fmt::format("normal = {}\n", vec(n));
+      e += fmt::format("layers = {}\n", b.num_layers);
+      note(
+          fmt::format("{}: release over the object's extent along {} in {} layers, layer k at "
+                      "start + (end - start) k / layers (PhysGaussian: 50 layers over "
+                      "|x - end_position| < |start_position - end_position|, layer i at "
+                      "end_time (i + 1) / 50)",
+                      where, vec(n), b.num_layers));
+    }
+    if (b.type == "enforce_particle_velocity_rotation") {
+      const PgVec3 n = normalized(b.normal);
+      e += fmt::format("point = {}\n", vec(b.point));
+      e += fmt::format("normal = {}\n", vec(n));
+      e += fmt::format("half_height = {}\n", num(b.half_height_and_radius[0]));
+      e += fmt::format("radius = {}\n", num(b.half_height_and_radius[1]));
+      e += fmt::format(
+          "angular_velocity = {}\n",
+          vec({-b.rotation_scale * n[0], -b.rotation_scale * n[1], -b.rotation_scale * n[2]}));
+      e += fmt::format("velocity = {}\n",
+                       vec({b.translation_scale * n[0], b.translation_scale * n[1],
+                            b.translation_scale * n[2]}));
+    }
+    if (b.type == "particle_impulse" || b.type == "enforce_particle_translation" ||
+        b.type == "enforce_particle_velocity_rotation")
+      selection_note = true;
+    e += fmt::format("start = {}\n", num(start));
+    e += fmt::format("end = {}\n", num(end));
+    d += e;
+  }
+  if (selection_note)
+    note(
+        "particle conditions: PhysGaussian selects their particles once at rest, gen4d at "
+        "every substep");
+
+  // Camera.
+  if (p.default_camera_index < 0 && p.init_azimuthm && p.init_elevation && p.init_radius) {
+    const PgVec3 up = normalized(p.mpm_space_vertical_upward_axis);
+    // PhysGaussian's frame in the trained space, carried to the simulation space.
+    const PgVec3 vw = mat_tvec(map.rotation, up);
+    PgVec3 h1{1, 1, 1};
+    if (std::fabs(dot(h1, vw)) < 0.01) h1 = {0.72, 0.37, -0.67};
+    h1 = normalized(add(h1, vw, -dot(h1, vw)));
+    const PgVec3 h1s = mat_vec(map.rotation, h1);
+    // gen4d's orbit frame (OrbitCamera::at_frame).
+    const PgVec3 a = std::fabs(up[0]) > 0.9 ? PgVec3{0, 1, 0} : PgVec3{1, 0, 0};
+    const PgVec3 e1 = normalized(add(a, up, -dot(a, up)));
+    const PgVec3 e2 = cross(up, e1);
+    const double phi0 = std::atan2(dot(h1s, e2), dot(h1s, e1)) * 180 / kPi;
+    double az = phi0 - *p.init_azimuthm, el = *p.init_elevation, rad = s * *p.init_radius;
+    double daz = 0, del = 0, drad = 0;
+    if (p.move_camera) {
+      daz = -*p.delta_a;
+      del = *p.delta_e;
+      drad = s * *p.delta_r;
+      az -= daz;
+      el -= del;
+      rad -= drad;
+    }
+    if (!(el > -90 && el < 90))
+      fail("init_elevation", fmt::format("the orbit's elevation {} is outside (-90, 90)", num(el)));
+    if (!(rad > 0)) fail("init_radius", "the orbit's radius must be > 0");
+    d += "\n[render]\ncamera = \"orbit\"\n";
+    d += fmt::format("center = {}\n", vec(p.mpm_space_viewpoint_center));
+    d += fmt::format("up = {}\n", vec(p.mpm_space_vertical_upward_axis));
+    d += fmt::format("azimuth = {}\n", num(az));
+    d += fmt::format("elevation = {}\n", num(el));
+    d += fmt::format("radius = {}\n", num(rad));
+    if (p.move_camera) {
+      d += fmt::format("d_azimuth = {}\n", num(daz));
+      d += fmt::format("d_elevation = {}\n", num(del));
+      d += fmt::format("d_radius = {}\n", num(drad));
+    }
+    note(
+        "camera: PhysGaussian's orbit in the simulation space (its field of view and image size "
+        "come from cameras.json, which the deck does not read: gen4d's defaults apply)");
+  } else {
+    note(
+        fmt::format("default_camera_index = {}: a cameras.json view (trained space) is not "
+                    "honoured; the deck's camera frames the object",
+                    p.default_camera_index));
+  }
+  if (p.show_hint) note("show_hint: PhysGaussian prints the camera and exits; ignored");
+  if (notes_out) *notes_out = std::move(notes);
+  return d;
+}
+
+}  // namespace gen4d::gaussians
