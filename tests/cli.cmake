@@ -28,3 +28,12 @@ if(TARGET gen4d)
   set_tests_properties(cli_splats PROPERTIES ENVIRONMENT "${GEN4D_TEST_ENV}" PROCESSORS 2
                        TIMEOUT 600)
 endif()
+
+# PhysGaussian configs through the command line: convert, a short run, bad input.
+if(TARGET gen4d)
+  add_test(NAME cli_physgaussian
+           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/cli_physgaussian.sh $<TARGET_FILE:gen4d>
+                   ${MPIEXEC_EXECUTABLE} ${CMAKE_CURRENT_BINARY_DIR}/scratch/cli_physgaussian)
+  set_tests_properties(cli_physgaussian PROPERTIES ENVIRONMENT "${GEN4D_TEST_ENV}" PROCESSORS 2
+                       TIMEOUT 600)
+endif()

@@ -19,6 +19,7 @@
 
 #include "DefaultDeck.hpp"
 #include "cli/NeuralCommands.hpp"
+#include "cli/PhysGaussianCommand.hpp"
 #include "cli/RenderCommand.hpp"
 #include "core/BuildInfo.hpp"
 #include "core/Deck.hpp"
@@ -44,6 +45,8 @@ struct RunArgs {
   std::string out;
   std::vector<std::string> sets;
   bool overwrite = false;
+  std::string physgaussian;  //!< a PhysGaussian JSON config instead of a deck
+  std::string model_path;    //!< its trained model folder
 };
 
 int rank_of(MPI_Comm c) {
@@ -100,6 +103,18 @@ int run_simulation(elastogen::Simulation& sim, const std::string& out, bool appe
 }
 
 int cmd_run(const RunArgs& a) {
+  if (!a.physgaussian.empty()) {
+    // PhysGaussian's scene: converted into OUT/physgaussian/, then run as that deck.
+    if (!a.deck.empty()) throw InputError("run: give a DECK or --physgaussian, not both");
+    if (a.model_path.empty()) throw InputError("run --physgaussian: --model-path is required");
+    const std::string out = a.out.empty() ? "output" : a.out;
+    check_output_dir(out, a.overwrite, "particles.h5");
+    const std::string deck = convert_physgaussian(MPI_COMM_WORLD, a.physgaussian, a.model_path,
+                                                  (fs::path(out) / "physgaussian").string());
+    mpm::MpmSimulation sim(MPI_COMM_WORLD, load_deck(deck, a.sets));
+    return run_mpm(sim, out, false);
+  }
+  if (!a.model_path.empty()) throw InputError("run: --model-path needs --physgaussian");
   Config cfg = a.deck.empty()
                    ? parse_deck(default_deck_text, "<embedded default>", default_deck_dir(), a.sets)
                    : load_deck(a.deck, a.sets);
@@ -282,6 +297,20 @@ int dispatch(int argc, char** argv) {
   run->add_option("--set,-s", ra.sets, "Override a deck key, e.g. --set material.density=500")
       ->take_all();
   run->add_flag("--overwrite", ra.overwrite, "Replace results already in the output directory");
+  run->add_option("--physgaussian", ra.physgaussian,
+                  "A PhysGaussian JSON config to run instead of a deck (with --model-path)")
+      ->check(CLI::ExistingFile);
+  run->add_option("--model-path", ra.model_path,
+                  "The trained 3DGS model folder of --physgaussian (point_cloud/iteration_N/)");
+  run->add_option("--output-path", ra.out, "Same as --out (PhysGaussian's spelling)");
+  std::string cv_config, cv_model, cv_out;
+  auto* convert = app.add_subcommand(
+      "convert-physgaussian", "Write the gen4d deck (and simulated PLY) of a PhysGaussian config");
+  convert->add_option("config", cv_config, "PhysGaussian JSON config")
+      ->required()
+      ->check(CLI::ExistingFile);
+  convert->add_option("--model-path", cv_model, "Trained 3DGS model folder")->required();
+  convert->add_option("--out,-o", cv_out, "Folder for deck.toml and object.ply")->required();
   bool run_mp4 = false, restart_mp4 = false;
   run->add_flag("--mp4", run_mp4,
                 "Render every output frame (as [render]) and assemble OUT/render.mp4 (ffmpeg)");
@@ -379,6 +408,10 @@ int dispatch(int argc, char** argv) {
   // --mp4 is the deck key render.video = "mp4" (a [render] table is added where there is none).
   if (run_mp4) ra.sets.push_back("render.video=\"mp4\"");
   if (restart_mp4) rs_sets.push_back("render.video=\"mp4\"");
+  if (*convert) {
+    convert_physgaussian(MPI_COMM_WORLD, cv_config, cv_model, cv_out);
+    return 0;
+  }
   if (*run) return cmd_run(ra);
   if (*restart) return cmd_restart(ckpt, rs_out, rs_sets);
   if (*info) return cmd_info();
