@@ -370,6 +370,39 @@ video = "mp4"
   EXPECT_EQ(parse_deck(cc.text, "<restart>", "/", {}).render.camera, cc.render.camera);
 }
 
+TEST(Deck, SnowMaterialKeysReachTheModel) {
+  const std::string text = R"(
+[simulation]
+dt = 1e-4
+end_time = 0.01
+
+[solver]
+method = "mpm"
+
+[domain]
+voxel_size = 0.02
+
+[[geometry]]
+type = "box"
+lo = [0, 0, 0]
+hi = [0.1, 0.1, 0.1]
+
+[material]
+model = "snow"
+youngs_modulus = 1.4e5
+poisson_ratio = 0.2
+density = 400
+critical_compression = 0.02
+critical_stretch = 0.005
+hardening_coefficient = 8
+)";
+  const Config c = parse_deck(text, "snow.toml", ".", {});
+  EXPECT_EQ(c.material.model, "snow");
+  EXPECT_EQ(c.material.params.at("critical_compression"), 0.02);
+  EXPECT_EQ(c.material.params.at("critical_stretch"), 0.005);
+  EXPECT_EQ(c.material.params.at("hardening_coefficient"), 8);
+}
+
 TEST(Deck, SplatAndRenderErrors) {
   const auto dir = scratch_dir();
   std::ofstream(dir / "assets" / "object.ply") << "placeholder\n";

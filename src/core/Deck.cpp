@@ -249,7 +249,10 @@ const std::vector<std::string>& mpm_material_keys() {
                                                 "consistency",
                                                 "flow_index",
                                                 "fracture_strain",
-                                                "failure_strain"};
+                                                "failure_strain",
+                                                "critical_compression",
+                                                "critical_stretch",
+                                                "hardening_coefficient"};
   return keys;
 }
 

@@ -26,6 +26,7 @@ void register_drucker_prager();
 void register_von_mises();
 void register_herschel_bulkley();
 void register_fracture();
+void register_snow();
 
 namespace detail {
 

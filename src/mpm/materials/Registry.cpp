@@ -34,6 +34,7 @@ std::map<std::string, MaterialEntry>& registry() {
     register_von_mises();
     register_herschel_bulkley();
     register_fracture();
+    register_snow();
     return true;
   }();
   (void)builtins;
