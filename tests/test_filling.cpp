@@ -10,6 +10,7 @@
 #include <limits>
 
 #include "core/Error.hpp"
+#include "gaussians/DeckSplats.hpp"
 #include "gaussians/Filling.hpp"
 #include "gaussians/Ply.hpp"
 #include "gaussians/Splats.hpp"
@@ -320,6 +321,33 @@ TEST(Filling, RejectsBadInput) {
 }
 
 // The trained donut with PhysGaussian's defaults: filling ends; counts and time are reported.
+TEST(Filling, DeckKeyFillsTheSplatPart) {
+  // A closed shell loaded as a deck's splats part: fill_cells adds the interior after the
+  // Gaussians (which stay first and unchanged), all inside the shell; 0 adds nothing.
+  SplatSet shell;
+  add_shell(shell, 1.0, 40000, 0.025, grey);  // as ClosedSphereEnclosesItsVolume
+  const std::string ply =
+      (std::filesystem::path(GEN4D_BINARY_DIR) / "tests" / "filling_deck_shell.ply").string();
+  write_splats_ply(ply, shell);
+  gen4d::GeometryConfig g;
+  g.type = "splats";
+  g.file = ply;
+  g.opacity_threshold = 0;
+  const SplatSet plain = load_geometry_splats(g);
+  g.fill_cells = 64;
+  const SplatSet filled = load_geometry_splats(g);
+  ASSERT_EQ(plain.size(), shell.size());
+  ASSERT_GT(filled.size(), plain.size() + 1000);
+  for (std::size_t i = 0; i < 3 * plain.size(); ++i)
+    ASSERT_EQ(filled.position[i], plain.position[i]) << i;
+  for (std::size_t i = plain.size(); i < filled.size(); ++i)
+    ASSERT_LT(
+        norm({filled.position[3 * i], filled.position[3 * i + 1], filled.position[3 * i + 2]}),
+        1.0 + 0.2)
+        << "filled particle " << i << " outside the shell";
+  std::filesystem::remove(ply);
+}
+
 TEST(Filling, Donut) {
   const fs::path path =
       fs::path(GEN4D_SHARED_DIR) / "data" / "splats" / "donut" / "point_cloud.ply";

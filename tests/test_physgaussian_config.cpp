@@ -622,6 +622,8 @@ TEST(PhysGaussianDeck, SandDeckColliderAndRelease) {
   ASSERT_EQ(c.geometry.size(), 1u);
   EXPECT_NEAR(c.geometry[0].rotate_degrees, 90, 1e-12);
   expect_vec(c.geometry[0].rotate_axis, {1, 0, 0}, 1e-15);
+  // particle_filling's n_grid 100 spans grid_lim 2; the object's side (scale) is 1.
+  EXPECT_EQ(c.geometry[0].fill_cells, 50);
   bool filling = false, truncation = false;
   for (const std::string& n : notes) {
     filling |= n.find("particle_filling") != std::string::npos;

@@ -42,6 +42,9 @@ struct GeometryConfig {
   Vec3d rotate_axis{0, 0, 1};
   double rotate_degrees = 0;
   double opacity_threshold = 0.02;
+  //! > 0: the interior of the splat object is filled with particles (PhysGaussian's internal
+  //! filling, gaussians/Filling.hpp) on a grid of this many cells along its longest side.
+  int fill_cells = 0;
   //! Colour (linear RGB in [0, 1]) of the splats made from a non-splat part for rendering.
   Vec3d color{0.75, 0.75, 0.75};
 };

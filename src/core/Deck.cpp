@@ -119,8 +119,14 @@ std::vector<std::string> geometry_keys(const std::string& type) {
   if (type == "capsule") return {"type", "a", "b", "radius", "color"};
   if (type == "mesh") return {"type", "file", "scale", "translate", "color"};
   if (type == "splats")
-    return {
-        "type", "file", "scale", "translate", "rotate_axis", "rotate_degrees", "opacity_threshold"};
+    return {"type",
+            "file",
+            "scale",
+            "translate",
+            "rotate_axis",
+            "rotate_degrees",
+            "opacity_threshold",
+            "fill_cells"};
   return {"type", "file", "grid", "scale", "translate", "color"};  // vdb
 }
 
@@ -209,6 +215,9 @@ GeometryConfig read_geometry(Section& s, const fs::path& base_dir) {
     g.opacity_threshold = s.number("opacity_threshold", g.opacity_threshold);
     s.check(g.opacity_threshold >= 0 && g.opacity_threshold < 1, "opacity_threshold",
             fmt::format("must be in [0, 1), got {}", g.opacity_threshold));
+    g.fill_cells = s.integer("fill_cells", g.fill_cells);
+    s.check(g.fill_cells >= 0 && g.fill_cells <= 4096, "fill_cells",
+            fmt::format("must be in [0, 4096] (0: no filling), got {}", g.fill_cells));
   } else {
     g.color = s.vec3("color", g.color);
     require_unit_colour(s, "color", g.color);

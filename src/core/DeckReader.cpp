@@ -40,6 +40,7 @@ const std::vector<TableSpec>& schema() {
         {"rotate_axis", K::Vec3},
         {"rotate_degrees", K::Number},
         {"opacity_threshold", K::Number},
+        {"fill_cells", K::Integer},
         {"color", K::Vec3}}},
       {"material",
        false,

@@ -8,6 +8,8 @@
 #include <string>
 
 #include "core/Error.hpp"
+#include "core/Log.hpp"
+#include "gaussians/Filling.hpp"
 #include "gaussians/Ply.hpp"
 
 namespace gen4d::gaussians {
@@ -132,6 +134,17 @@ SplatSet load_geometry_splats(const GeometryConfig& g) {
   std::array<double, 9> r;
   Eigen::Map<Mat3>(r.data()) = R;
   transform_splats(kept, g.scale, r, g.translate);
+  if (g.fill_cells > 0) {
+    FillingOptions fill;
+    fill.n_grid = g.fill_cells;
+    const FillingResult filled = fill_interior(kept, fill);
+    log::info(
+        "{}: {} particles filled in ({} interior and {} surface cells of {:.3g} m; {} "
+        "Gaussians' supports clamped) in {:.2f} s",
+        g.file, filled.particles.size(), filled.interior_cells, filled.surface_cells, filled.dx,
+        filled.clamped_splats, filled.seconds_total);
+    append_splats(kept, filled.particles);
+  }
   return kept;
 }
 

@@ -60,8 +60,10 @@
 //   StVK-Hencky.
 // - snow -> "snow" with E, nu, density. PhysGaussian has no snow return mapping and computes
 //   no stress for it (its snow is stress-free); gen4d's is a snow model.
-// additional_material_params, rpic_damping != 0, grid_v_damping_scale < 1, particle_filling
-// and pic_damping have no gen4d key: each present one is listed in the notes.
+// particle_filling -> the splats part's fill_cells (its n_grid rescaled from the simulation box
+// to the object; its other keys at PhysGaussian's defaults, with a note where they differ).
+// additional_material_params, rpic_damping != 0, grid_v_damping_scale < 1 and pic_damping
+// have no gen4d key: each present one is listed in the notes.
 // Boundary conditions ([[boundary]]; start_time -> start, end_time -> end, a start before 0 is
 // 0, an entry that never acts is left out with a note):
 // - cuboid -> cuboid, lo / hi = point -/+ size, velocity. PhysGaussian moves the box with its
@@ -816,6 +818,14 @@ std::string physgaussian_to_deck(const PhysGaussianParams& p, const std::string&
 
   d += "\n[[geometry]]\ntype = \"splats\"\n";
   d += fmt::format("file = {}\n", quoted(ply_path));
+  // PhysGaussian's filling grid spans the simulation box (grid_lim) with n_grid cells; gen4d's
+  // spans the object, whose longest side the preprocessing made `scale`.
+  const int fill_cells =
+      p.particle_filling
+          ? std::max(
+                1, static_cast<int>(std::lround(p.particle_filling->n_grid * p.scale / p.grid_lim)))
+          : 0;
+  if (fill_cells > 0) d += fmt::format("fill_cells = {}\n", fill_cells);
   if (space == PlySpace::Trained) {
     const auto [axis, degrees] = axis_angle(map.rotation);
     d += fmt::format("scale = {}\n", num(s));
@@ -906,10 +916,24 @@ std::string physgaussian_to_deck(const PhysGaussianParams& p, const std::string&
     note(fmt::format("grid_v_damping_scale = {}: not honoured (no grid damping key)",
                      num(p.grid_v_damping_scale)));
   if (p.pic_damping) note("pic_damping: read by PhysGaussian but used by none of its code");
-  if (p.particle_filling)
+  if (p.particle_filling) {
+    const PhysGaussianFilling& f = *p.particle_filling;
+    const PhysGaussianFilling defaults;
     note(
-        "particle_filling: not honoured (gen4d's MPM has no internal filling of splat "
-        "objects; only the Gaussians are particles)");
+        fmt::format("particle_filling: n_grid {} over the box of grid_lim {} is fill_cells = {} "
+                    "over the object of side {} (gen4d's filling bounds each Gaussian's "
+                    "support and searches the nearest Gaussian with a k-d tree)",
+                    f.n_grid, num(p.grid_lim), fill_cells, num(p.scale)));
+    if (f.density_threshold != defaults.density_threshold ||
+        f.search_threshold != defaults.search_threshold ||
+        f.max_particles_per_cell != defaults.max_particles_per_cell ||
+        f.search_exclude_direction != defaults.search_exclude_direction ||
+        f.ray_cast_direction != defaults.ray_cast_direction || f.boundary || f.smooth)
+      note(
+          "particle_filling: only n_grid reaches the deck; its other keys take PhysGaussian's "
+          "defaults (density_threshold 5, search_threshold 3, one particle per cell, rays "
+          "excluding -z and cast along +z, no boundary, no smoothing)");
+  }
 
   // Solver and grid.
   d += "\n[solver]\nmethod = \"mpm\"\n";
