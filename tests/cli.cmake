@@ -1,7 +1,9 @@
 # End-to-end checks of the gen4d executable: exit codes, one-line errors, untouched outputs,
-# and a SIGTERM / restart cycle at 2 ranks.
+# a SIGTERM / restart cycle at 2 ranks, the main job (the trained donut as MPM jelly, rendered)
+# at 1, 2 and 4 ranks with identical images, and PhysGaussian configs (convert, a short run,
+# bad input).
 if(TARGET gen4d)
-  foreach(script cli_errors cli_sigterm_restart)
+  foreach(script cli_errors cli_sigterm_restart cli_splats cli_physgaussian)
     add_test(NAME ${script}
              COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/${script}.sh $<TARGET_FILE:gen4d>
                      ${MPIEXEC_EXECUTABLE} ${CMAKE_CURRENT_BINARY_DIR}/scratch/${script})
@@ -20,20 +22,3 @@ if(TARGET gen4d)
                        TIMEOUT 600)
 endif()
 
-# The main job (the trained donut as MPM jelly, rendered) at 1, 2 and 4 ranks: identical images.
-if(TARGET gen4d)
-  add_test(NAME cli_splats
-           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/cli_splats.sh $<TARGET_FILE:gen4d>
-                   ${MPIEXEC_EXECUTABLE} ${CMAKE_CURRENT_BINARY_DIR}/scratch/cli_splats)
-  set_tests_properties(cli_splats PROPERTIES ENVIRONMENT "${GEN4D_TEST_ENV}" PROCESSORS 2
-                       TIMEOUT 600)
-endif()
-
-# PhysGaussian configs through the command line: convert, a short run, bad input.
-if(TARGET gen4d)
-  add_test(NAME cli_physgaussian
-           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/cli_physgaussian.sh $<TARGET_FILE:gen4d>
-                   ${MPIEXEC_EXECUTABLE} ${CMAKE_CURRENT_BINARY_DIR}/scratch/cli_physgaussian)
-  set_tests_properties(cli_physgaussian PROPERTIES ENVIRONMENT "${GEN4D_TEST_ENV}" PROCESSORS 2
-                       TIMEOUT 600)
-endif()
