@@ -62,8 +62,8 @@ TEST(DeckErrors, WrongType) {
   auto f = edit("name = \"beam\"", "name = 3");
   expect_error("wrong_type2.toml", f.text, f.line, "simulation.name",
                "expected a string, got integer");
-  auto g = edit("[material]", "[[material]]");
-  expect_error("wrong_type3.toml", g.text, g.line, "material", "expected a table");
+  auto g = edit("[solver]", "[[solver]]");
+  expect_error("wrong_type3.toml", g.text, g.line, "solver", "expected a table");
   auto h = edit("[[fixed]]", "[fixed]");
   expect_error("wrong_type4.toml", h.text, h.line, "fixed", "expected an array of tables");
 }

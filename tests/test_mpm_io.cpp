@@ -91,6 +91,7 @@ void reference_particle(std::int64_t id, Particles& p) {
     p.F[9 * i + k] += std::cos(0.9 * t - k) / 11.0;
   }
   p.flag[i] = static_cast<std::uint8_t>(id % 4);
+  p.material[i] = static_cast<std::uint8_t>(id % 3);
 }
 
 //! The reference particles of `comm`'s rank: ids not removed with (7 id + 3) % size == rank,
@@ -129,6 +130,7 @@ void expect_same_particles(const Particles& a, const Particles& b) {
   EXPECT_TRUE(same_bits(a.mass, b.mass));
   EXPECT_TRUE(same_bits(a.vol0, b.vol0));
   EXPECT_EQ(a.flag, b.flag);
+  EXPECT_EQ(a.material, b.material);
 }
 
 ParticleCheckpointState make_state(int step, const Particles& p) {
@@ -214,8 +216,8 @@ std::string dataset_bytes(hid_t file, const std::string& name) {
   return bytes;
 }
 
-const char* const kDatasets[] = {"position", "velocity", "C",       "F",    "state",
-                                 "mass",     "flag",     "volume0", "alive"};
+const char* const kDatasets[] = {"position", "velocity", "C",       "F",     "state",
+                                 "mass",     "flag",     "volume0", "alive", "material"};
 
 TEST(ParticleCheckpoint, FileContentDoesNotDependOnTheRankCount) {
   const std::string dir = scratch_dir("rank_counts");
@@ -401,10 +403,10 @@ TEST(ParticleCheckpoint, BadFilesAreInputErrorsNamingTheFile) {
 
   const std::string version = dir + "/version.h5";
   damaged_copy(good, version, [](hid_t f) {
-    const long two = 2;
-    set_attr(f, "format_version", H5T_NATIVE_LONG, &two);
+    const long three = 3;
+    set_attr(f, "format_version", H5T_NATIVE_LONG, &three);
   });
-  expect_rejected(version, "format_version 2 is not supported");
+  expect_rejected(version, "format_version 3 is not supported");
 
   const std::string missing = dir + "/missing_dataset.h5";
   damaged_copy(good, missing, [](hid_t f) { H5Ldelete(f, "F", H5P_DEFAULT); });
@@ -446,6 +448,28 @@ std::vector<std::string> listing(const std::string& dir) {
     names.push_back(entry.path().filename().string());
   std::sort(names.begin(), names.end());
   return names;
+}
+
+TEST(ParticleCheckpoint, VersionOneFilesReadWithEveryMaterialSlotZero) {
+  // A format_version 1 file is a version 2 file without the material dataset.
+  const std::string dir = scratch_dir("version_one");
+  const Particles mine = my_particles(MPI_COMM_WORLD);
+  const std::string good = write_particle_checkpoint(MPI_COMM_WORLD, dir, make_state(1, mine), 0);
+  const std::string old = dir + "/version1.h5";
+  damaged_copy(good, old, [](hid_t f) {
+    const long one = 1;
+    set_attr(f, "format_version", H5T_NATIVE_LONG, &one);
+    H5Ldelete(f, "material", H5P_DEFAULT);
+  });
+  Particles back;
+  read_particle_checkpoint(MPI_COMM_WORLD, old, back);
+  Particles expected = [&] {
+    const IdBlock block = id_block(kTotal, world_rank(), world_size());
+    return expected_range(block.begin, block.begin + block.count);
+  }();
+  ASSERT_GT(std::count(expected.material.begin(), expected.material.end(), 1), 0);
+  std::fill(expected.material.begin(), expected.material.end(), 0);
+  expect_same_particles(back, expected);
 }
 
 TEST(ParticleCheckpoint, FailedWritesLeaveNothingUnderTheFinalName) {

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -16,6 +17,7 @@
 #include "gaussians/Camera.hpp"
 #include "gaussians/DeckSplats.hpp"
 #include "gaussians/PhysGaussianConfig.hpp"
+#include "gaussians/PhysGaussianOutput.hpp"
 #include "gaussians/Ply.hpp"
 
 namespace fs = std::filesystem;
@@ -450,6 +452,14 @@ TEST(PhysGaussianDeck, JellyDeckParsesToTheSameScene) {
   EXPECT_EQ(c.material.poisson_ratio, 0.4);
   EXPECT_EQ(c.material.density, 200);
   EXPECT_TRUE(c.material.params.empty());
+  // additional_material_params: the same model with the box's constants, bound to its box.
+  ASSERT_EQ(c.material_regions.size(), 1u);
+  const gen4d::MaterialConfig& box = c.material_regions[0];
+  EXPECT_EQ(box.model, "fixed_corotated");
+  EXPECT_EQ(box.density, 70);
+  EXPECT_TRUE(box.has_region);
+  expect_vec(box.region.lo, {0.0, 0.0, 1.0});
+  expect_vec(box.region.hi, {2.0, 2.0, 2.0});
   ASSERT_EQ(c.boundaries.size(), 3u);
   EXPECT_EQ(c.boundaries[0].type, "bounding_box");
   const gen4d::BoundaryConfig& cub = c.boundaries[1];
@@ -478,10 +488,75 @@ TEST(PhysGaussianDeck, JellyDeckParsesToTheSameScene) {
     return false;
   };
   EXPECT_TRUE(has_note("additional_material_params"));
-  EXPECT_TRUE(has_note("reset = 1"));
-  EXPECT_TRUE(has_note("grid_v_damping_scale"));
+  EXPECT_FALSE(has_note("reset = 1"));  // honoured; start_time 0: no difference
+  EXPECT_FALSE(has_note("grid_v_damping_scale"));
   EXPECT_FALSE(has_note("substeps per frame"));  // 0.04 / 1e-4 is exactly 400
   EXPECT_FALSE(has_note("rpic_damping"));        // 0: nothing to report
+  // reset = 1: the grid zeroed for 15 substeps; the still cuboid stays fixed.
+  EXPECT_EQ(cub.motion, "fixed");
+  EXPECT_DOUBLE_EQ(cub.reset_duration, 15 * 1e-4);
+  EXPECT_EQ(c.mpm.grid_velocity_scale, 0.9999);
+  EXPECT_EQ(c.mpm.rpic_damping, 0);
+}
+
+TEST(PhysGaussianDeck, DampingMovingCuboidAndCutReachTheDeck) {
+  TempDir dir;
+  PhysGaussianParams p = read_physgaussian_config(fixture("jelly_cuboid.json"));
+  const SplatSet trained = splats_at(lattice(-0.8, 0.6, 6));
+  const std::string ply = dir.file("object.ply");
+  write_splats_ply(ply, trained);
+  const PhysGaussianPreprocessed pre = preprocess_physgaussian(read_splats_ply(ply), p);
+  p.rpic_damping = -1;
+  p.grid_v_damping_scale = 0.9995;
+  PhysGaussianBoundary& cub = p.boundary_conditions[1];
+  cub.velocity = {0, 0, 0.2};
+  cub.start_time = 0.1;
+  cub.end_time = 0.6;
+  PhysGaussianBoundary cut;
+  cut.type = "surface_collider";
+  cut.point = {1, 0.8, 1};
+  cut.normal = {0, 2, 0};
+  cut.surface = "cut";
+  cut.end_time = 5;
+  p.boundary_conditions.push_back(cut);
+  std::vector<std::string> notes;
+  const gen4d::Config c = gen4d::parse_deck(
+      physgaussian_to_deck(p, ply, pre, PlySpace::Trained, &notes), "converted.toml", dir.file(""));
+  EXPECT_EQ(c.mpm.rpic_damping, -1);  // below -0.001: PIC
+  EXPECT_EQ(c.mpm.grid_velocity_scale, 0.9995);
+  ASSERT_EQ(c.boundaries.size(), 4u);
+  const gen4d::BoundaryConfig& b = c.boundaries[1];
+  EXPECT_EQ(b.motion, "moving");
+  expect_vec(b.velocity, {0, 0, 0.2});
+  EXPECT_EQ(b.start, 0.1);
+  EXPECT_EQ(b.end, 0.6);
+  EXPECT_DOUBLE_EQ(b.reset_duration, 15 * 1e-4);
+  const gen4d::BoundaryConfig& k = c.boundaries[3];
+  EXPECT_EQ(k.surface, "cut");
+  expect_vec(k.normal, {0, 1, 0});
+  expect_vec(k.region.lo, {0, 0, 0.4});
+  expect_vec(k.region.hi, {2, 2, 0.53});
+  EXPECT_EQ(k.cut_scale, 0.3);
+  auto has_note = [&](const std::string& what) {
+    for (const std::string& n : notes)
+      if (n.find(what) != std::string::npos) return true;
+    return false;
+  };
+  EXPECT_TRUE(has_note("also zeroes it before start_time"));  // start_time 0.1 > 0
+  EXPECT_FALSE(has_note("PhysGaussian the y component"));     // the normal is y
+  EXPECT_FALSE(has_note("rpic_damping"));
+  EXPECT_FALSE(has_note("stays put"));
+  // A cut whose normal is not y, and an rpic_damping PhysGaussian extrapolates, are noted.
+  p.boundary_conditions[3].normal = {0, 0, 1};
+  p.rpic_damping = 1.5;
+  p.grid_v_damping_scale = 1.1;
+  notes.clear();
+  const gen4d::Config d = gen4d::parse_deck(
+      physgaussian_to_deck(p, ply, pre, PlySpace::Trained, &notes), "converted.toml", dir.file(""));
+  EXPECT_TRUE(has_note("PhysGaussian the y component"));
+  EXPECT_TRUE(has_note("rpic_damping = 1.5: not honoured"));
+  EXPECT_EQ(d.mpm.rpic_damping, 0);
+  EXPECT_EQ(d.mpm.grid_velocity_scale, 1);  // 1.1: PhysGaussian's "off"
 }
 
 TEST(PhysGaussianDeck, OrbitCameraMatchesPhysGaussiansViews) {
@@ -714,4 +789,96 @@ TEST(PhysGaussianPreprocess, TrainedDonutFitsTheSimulationBox) {
                {donut.position[3 * i], donut.position[3 * i + 1], donut.position[3 * i + 2]},
                1e-12);
   }
+}
+
+// ---- images, scenery and cameras.json ----
+
+namespace {
+
+//! Pixel offsets from the principal point of world point `q` seen by `c` (x right, y down).
+std::array<double, 2> project(const Camera& c, const PgVec3& q) {
+  PgVec3 v{0, 0, 0};
+  for (int k = 0; k < 3; ++k)
+    for (int i = 0; i < 3; ++i) v[k] += c.rotation[3 * i + k] * (q[i] - c.position[i]);
+  return {c.fx * v[0] / v[2], c.fy * v[1] / v[2]};
+}
+
+}  // namespace
+
+TEST(PhysGaussianDeck, SceneryAndCamerasJsonViews) {
+  TempDir dir;
+  PhysGaussianParams p = read_physgaussian_config(fixture("metal_rotation.json"));
+  const PhysGaussianPreprocessed pre = preprocess_physgaussian(splats_at(lattice(-3, 3, 9)), p);
+  ASSERT_GT(pre.rest.size(), 0u);
+  write_splats_ply(dir.file("object.ply"), pre.selected);
+  write_splats_ply(dir.file("scenery.ply"), pre.rest);
+  // Two trained-space views looking along +y (rows of the camera-to-world rotation).
+  Camera a;
+  a.width = 64;
+  a.height = 48;
+  a.fx = 50;
+  a.fy = 60;
+  a.position = {0, -5, 0};
+  a.rotation = {1, 0, 0, 0, 0, 1, 0, -1, 0};
+  Camera b = a;
+  b.width = 80;
+  b.height = 60;
+  b.fx = b.fy = 70;
+  b.position = {0.5, -4, 1};
+  PhysGaussianDeckFiles files;
+  files.scenery_ply = "scenery.ply";
+  files.cameras_json = "sim_cameras.json";
+  files.cameras = {a, b};
+  write_cameras_json(dir.file("sim_cameras.json"), cameras_to_simulation(files.cameras, pre.map));
+
+  // The orbit takes the first entry's image size and vertical field of view.
+  std::vector<std::string> notes;
+  auto convert = [&] {
+    return gen4d::parse_deck(
+        physgaussian_to_deck(p, "object.ply", pre, PlySpace::Simulation, &notes, &files),
+        "converted.toml", dir.file(""));
+  };
+  gen4d::Config c = convert();
+  EXPECT_EQ(c.render.layout, "physgaussian");
+  EXPECT_EQ(c.render.fps, 100);  // int(1 / frame_dt), frame_dt = 0.01
+  EXPECT_EQ(c.render.background, (gen4d::Vec3d{0, 0, 0}));
+  EXPECT_EQ(c.render.scenery, fs::path(dir.file("scenery.ply")).lexically_normal().string());
+  EXPECT_EQ(c.render.camera, "orbit");
+  EXPECT_EQ(c.render.width, 64);
+  EXPECT_EQ(c.render.height, 48);
+  EXPECT_NEAR(c.render.fov_y, 2 * std::atan(24.0 / 60.0) * 180 / 3.14159265358979323846, 1e-12);
+  EXPECT_TRUE(std::any_of(notes.begin(), notes.end(), [](const std::string& n) {
+    return n.find("fx 50 differs from fy 60") != std::string::npos;
+  }));
+
+  // default_camera_index = 1: that entry, carried into the simulation space, shows every point
+  // where the trained view shows its preimage.
+  p.default_camera_index = 1;
+  c = convert();
+  ASSERT_EQ(c.render.camera,
+            fs::path(dir.file("sim_cameras.json")).lexically_normal().string() + ":1");
+  const Camera sim = read_camera_spec(c.render.camera);
+  EXPECT_EQ(sim.width, 80);
+  EXPECT_EQ(sim.height, 60);
+  EXPECT_EQ(sim.fx, 70);
+  for (const PgVec3& q : std::vector<PgVec3>{{0, 0, 0}, {1.2, 0.3, -0.7}, {-2, 2, 1.5}}) {
+    const auto want = project(b, q), got = project(sim, pre.map.to_sim(q));
+    EXPECT_NEAR(got[0], want[0], 1e-9);
+    EXPECT_NEAR(got[1], want[1], 1e-9);
+  }
+  // An index beyond cameras.json is PhysGaussian's IndexError: an InputError naming the key.
+  p.default_camera_index = 2;
+  try {
+    convert();
+    ADD_FAILURE() << "index 2 of 2 cameras accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("default_camera_index"), std::string::npos) << e.what();
+  }
+  // Without cameras.json the deck's camera frames the object; without a scenery file the
+  // Gaussians outside sim_area are not drawn.
+  files = PhysGaussianDeckFiles{};
+  p.default_camera_index = 0;
+  c = convert();
+  EXPECT_EQ(c.render.camera, "auto");
+  EXPECT_EQ(c.render.scenery, "");
 }

@@ -19,7 +19,7 @@ Eigen::MatrixXd block_stiffness(long cells) {
   const long n = cells + 1;
   parallel::NodeGrid grid(MPI_COMM_SELF, {n, n, n});
   std::vector<std::uint8_t> occ(grid.adjacent_cells().size(), 1);
-  elastogen::VoxelSystem sys(grid, {0, 0, 0}, 0.1, occ, 1000.0, {});
+  elastogen::VoxelSystem sys(grid, {0, 0, 0}, 0.1, occ, {1000.0}, {});
   const auto mat = gm::LinearElastic::from_young_poisson(1e6, 0.3);
   auto stress = [&](const double* F, double* P) {
     gm::Mat3 Fm, Pm;

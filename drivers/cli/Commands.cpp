@@ -47,6 +47,7 @@ struct RunArgs {
   bool overwrite = false;
   std::string physgaussian;  //!< a PhysGaussian JSON config instead of a deck
   std::string model_path;    //!< its trained model folder
+  bool output_ply = false;   //!< also PhysGaussian's simulation_ply/sim_NNNNNNNNNN.ply files
 };
 
 int rank_of(MPI_Comm c) {
@@ -112,9 +113,12 @@ int cmd_run(const RunArgs& a) {
     const std::string deck = convert_physgaussian(MPI_COMM_WORLD, a.physgaussian, a.model_path,
                                                   (fs::path(out) / "physgaussian").string());
     mpm::MpmSimulation sim(MPI_COMM_WORLD, load_deck(deck, a.sets));
-    return run_mpm(sim, out, false);
+    const int code = run_mpm(sim, out, false);
+    if (code == 0 && a.output_ply) write_physgaussian_plys(MPI_COMM_WORLD, out);
+    return code;
   }
   if (!a.model_path.empty()) throw InputError("run: --model-path needs --physgaussian");
+  if (a.output_ply) throw InputError("run: --output-ply needs --physgaussian");
   Config cfg = a.deck.empty()
                    ? parse_deck(default_deck_text, "<embedded default>", default_deck_dir(), a.sets)
                    : load_deck(a.deck, a.sets);
@@ -303,6 +307,9 @@ int dispatch(int argc, char** argv) {
   run->add_option("--model-path", ra.model_path,
                   "The trained 3DGS model folder of --physgaussian (point_cloud/iteration_N/)");
   run->add_option("--output-path", ra.out, "Same as --out (PhysGaussian's spelling)");
+  run->add_flag("--output-ply", ra.output_ply,
+                "With --physgaussian: also OUT/simulation_ply/sim_NNNNNNNNNN.ply per frame "
+                "(particle positions, as PhysGaussian's --output_ply)");
   std::string cv_config, cv_model, cv_out;
   auto* convert = app.add_subcommand(
       "convert-physgaussian", "Write the gen4d deck (and simulated PLY) of a PhysGaussian config");

@@ -24,6 +24,7 @@ struct BoxRegion {
 //! One solid in the union that makes up the object.
 struct GeometryConfig {
   std::string type;  //!< "box" | "sphere" | "capsule" | "mesh" | "vdb" | "splats"
+  std::string name;  //!< optional, unique; what a [[material]] entry's `geometry` refers to
   // box
   Vec3d lo{0, 0, 0}, hi{0, 0, 0};
   // sphere
@@ -61,6 +62,13 @@ struct MaterialConfig {
   //! where each was set ("FILE:LINE" or "--set ..."), checked by the MPM material registry.
   std::map<std::string, double> params;
   std::map<std::string, std::string> param_where;
+  // Binding of a [[material]] entry after the first: the part named `geometry` (its index in
+  // Config::geometry is `geometry_part`), or the rest positions inside `region`.
+  std::string geometry;
+  int geometry_part = -1;
+  bool has_region = false;
+  BoxRegion region;
+  std::string where;  //!< "FILE:LINE" of the entry, for messages
 };
 
 struct SolverConfig {
@@ -92,6 +100,10 @@ struct MpmConfig {
   Vec3d velocity{0, 0, 0};              //!< initial velocity of every particle, m/s
   double max_cells_per_substep =
       1.0;  //!< instability guard: a particle moving farther stops the run
+  //! P2G's affine matrix C -> (1 - r) C + r skew(C) for r in [0, 1] (PhysGaussian's RPIC
+  //! damping; 0: APIC); -1: PIC (C = 0).
+  double rpic_damping = 0;
+  double grid_velocity_scale = 1;  //!< grid velocities times this every substep; 1: off
 };
 
 //! [[boundary]] of the MPM solver, as in PhysGaussian's configs; active for start <= t < end.
@@ -99,15 +111,23 @@ struct BoundaryConfig {
   std::string type;  //!< bounding_box | cuboid | particle_impulse | enforce_particle_translation
                      //!< | enforce_particle_velocity_rotation | surface_collider
                      //!< | release_particles_sequentially
-  BoxRegion region;  //!< lo/hi (cuboid, impulse, translation)
+  BoxRegion region;  //!< lo/hi (cuboid, impulse, translation, the cut of a "cut" collider)
   Vec3d point{0, 0, 0};
   Vec3d normal{0, 0, 1};
   Vec3d velocity{0, 0, 0};
   Vec3d angular_velocity{0, 0, 0};     //!< rad/s about `point` (velocity_rotation)
   Vec3d force{0, 0, 0};                //!< N, total over the region's particles (impulse)
   double radius = 0, half_height = 0;  //!< cylinder of velocity_rotation (axis = normal)
-  std::string surface = "sticky";      //!< surface_collider: sticky | slip | separate
+  std::string surface = "sticky";      //!< surface_collider: sticky | slip | separate | cut
   double friction = 0;
+  //! cuboid: "fixed" (the box stays at lo/hi) or "moving" (it translates with `velocity` while
+  //! active: lo/hi + velocity (clamp(t, start, end) - start)).
+  std::string motion = "fixed";
+  //! cuboid: for this long after `end` (s) every grid velocity is zeroed; 0: never.
+  double reset_duration = 0;
+  //! surface_collider "cut": nodes behind the plane and inside `region` (the cut) lose their
+  //! normal velocity and keep this fraction of the rest; the other nodes behind it stop.
+  double cut_scale = 0.3;
   //! surface_collider: nodes up to this far outside the plane (m) are blended in, with weight
   //! 1 - distance / width, so the collider's action is continuous in its position (diagnose
   //! fits a plane's height); 0, as decks give it: only nodes on or inside the plane.
@@ -192,7 +212,14 @@ struct RenderConfig {
   std::string covariance_update = "deformation_gradient";
   //! Spacing of the splats made from non-splat geometry; 0: the particle or voxel spacing.
   double splat_spacing = 0;
-  bool mp4 = false;  //!< assemble png/ into OUT/render.mp4 where ffmpeg exists
+  bool mp4 = false;  //!< assemble the images into a video where ffmpeg exists
+  //! "gen4d": OUT/png/frame_NNNNNN.png for every output frame, video OUT/render.mp4;
+  //! "physgaussian": gs_simulation.py's OUT/0000.png, 0001.png, ... for output frames 1, 2, ...
+  //! (no image of frame 0, the rest state), video OUT/output.mp4.
+  std::string layout = "gen4d";
+  double fps = 0;  //!< the video's frame rate; 0: 1 / frame interval, within [1, 60]
+  //! "" or a 3DGS PLY (absolute path) drawn unmoved, as it is in the file, in every frame.
+  std::string scenery;
 };
 
 struct Config {
@@ -205,7 +232,11 @@ struct Config {
   double voxel_size = 0;  //!< m
   int padding = 1;        //!< empty voxels around the object's bounds
   std::vector<GeometryConfig> geometry;
+  //! [material], or the first [[material]]: the material of everything no later entry claims.
   MaterialConfig material;
+  //! The [[material]] entries after the first, in deck order; a particle or voxel takes the last
+  //! one whose binding holds it (material_slot).
+  std::vector<MaterialConfig> material_regions;
   SolverConfig solver;
   std::vector<FixedConfig> fixed;
   std::vector<KinematicConfig> kinematic;
@@ -220,5 +251,21 @@ struct Config {
   std::string source;  //!< deck path ("<embedded>" for built-in text)
   std::string text;    //!< final deck text (TOML, overrides applied); stored in outputs
 };
+
+//! Material slot of a point of geometry part `part` (index in Config::geometry, -1 when
+//! unknown) at rest position x: 1 + the index of the last material_regions entry whose binding
+//! holds it, else 0 (Config::material).
+inline int material_slot(const Config& c, int part, const Vec3d& x) {
+  for (int k = static_cast<int>(c.material_regions.size()) - 1; k >= 0; --k) {
+    const MaterialConfig& m = c.material_regions[static_cast<std::size_t>(k)];
+    if (m.has_region ? m.region.contains(x) : (part >= 0 && part == m.geometry_part)) return k + 1;
+  }
+  return 0;
+}
+
+//! The material of slot s (0: Config::material, k: material_regions[k - 1]).
+inline const MaterialConfig& material_of_slot(const Config& c, int s) {
+  return s == 0 ? c.material : c.material_regions.at(static_cast<std::size_t>(s - 1));
+}
 
 }  // namespace gen4d

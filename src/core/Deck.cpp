@@ -114,20 +114,15 @@ void read_domain(const Section& s, Config& c) {
 }
 
 std::vector<std::string> geometry_keys(const std::string& type) {
-  if (type == "box") return {"type", "lo", "hi", "color"};
-  if (type == "sphere") return {"type", "center", "radius", "color"};
-  if (type == "capsule") return {"type", "a", "b", "radius", "color"};
-  if (type == "mesh") return {"type", "file", "scale", "translate", "color"};
+  if (type == "box") return {"type", "name", "lo", "hi", "color"};
+  if (type == "sphere") return {"type", "name", "center", "radius", "color"};
+  if (type == "capsule") return {"type", "name", "a", "b", "radius", "color"};
+  if (type == "mesh") return {"type", "name", "file", "scale", "translate", "color"};
   if (type == "splats")
-    return {"type",
-            "file",
-            "scale",
-            "translate",
-            "rotate_axis",
-            "rotate_degrees",
-            "opacity_threshold",
+    return {"type",      "name",        "file",           "scale",
+            "translate", "rotate_axis", "rotate_degrees", "opacity_threshold",
             "fill_cells"};
-  return {"type", "file", "grid", "scale", "translate", "color"};  // vdb
+  return {"type", "name", "file", "grid", "scale", "translate", "color"};  // vdb
 }
 
 //! Rejects keys of `table` that exist for some of its types but not for `type` (keys `own`).
@@ -188,6 +183,7 @@ GeometryConfig read_geometry(Section& s, const fs::path& base_dir) {
   s.string("type");  // presence and type first, then the value
   g.type = s.choice("type", "", {"box", "sphere", "capsule", "mesh", "vdb", "splats"});
   reject_foreign_geometry_keys(s, g.type);
+  g.name = s.string("name", g.name);
   if (g.type == "box") {
     g.lo = s.vec3("lo");
     g.hi = s.vec3("hi");
@@ -235,6 +231,11 @@ void read_geometries(toml::table& root, const Locator& loc, const fs::path& base
   for (Section& s : sections) {
     s.reject_unknown(key_names("geometry"));
     c.geometry.push_back(read_geometry(s, base_dir));
+    const std::string& name = c.geometry.back().name;
+    if (s.has("name")) s.check(!name.empty(), "name", "must not be empty");
+    for (std::size_t i = 0; i + 1 < c.geometry.size() && !name.empty(); ++i)
+      s.check(c.geometry[i].name != name, "name",
+              fmt::format("'{}' already names geometry.{}", name, i));
   }
 }
 
@@ -312,6 +313,86 @@ void read_material(Section& s, MaterialConfig& m, const fs::path& base_dir) {
   read_elastic_constants(s, m);
 }
 
+constexpr const char* kBindingKeys[] = {"geometry", "lo", "hi"};
+
+//! The binding of a [[material]] entry after the first: `geometry = NAME` or `lo`/`hi`.
+void read_material_binding(const Section& s, const Config& c, MaterialConfig& m) {
+  const bool named = s.has("geometry"), boxed = s.has("lo") || s.has("hi");
+  if (named == boxed)
+    s.fail_table(named ? "takes geometry or lo/hi, not both"
+                       : "a [[material]] after the first needs a binding: geometry = NAME (a "
+                         "named [[geometry]] part) or lo/hi (a box of rest positions)");
+  if (named) {
+    m.geometry = s.string("geometry");
+    std::vector<std::string> names;
+    for (std::size_t i = 0; i < c.geometry.size(); ++i) {
+      if (c.geometry[i].name == m.geometry) m.geometry_part = static_cast<int>(i);
+      if (!c.geometry[i].name.empty()) names.push_back("'" + c.geometry[i].name + "'");
+    }
+    s.check(m.geometry_part >= 0, "geometry",
+            fmt::format("no [[geometry]] part is named '{}' (named parts: {})", m.geometry,
+                        names.empty() ? "none; give one a name key"
+                                      : fmt::format("{}", fmt::join(names, ", "))));
+  } else {
+    m.region.lo = s.vec3("lo");
+    m.region.hi = s.vec3("hi");
+    require_box(s, m.region.lo, m.region.hi);
+    m.has_region = true;
+  }
+}
+
+//! [material] (one material) or [[material]] (the first for everything, each later one for the
+//! part or box it names; the voxel solver needs one model and target for all of them).
+void read_materials(toml::table& root, const Locator& loc, const fs::path& base_dir, Config& c) {
+  const toml::node* node = root.get("material");
+  std::vector<Section> sections;
+  if (node && node->is_array()) {
+    sections = array_sections(root, "material", loc);
+    if (sections.empty()) loc.fail(node, "material", "at least one [[material]] table is required");
+  } else {
+    sections.push_back(table_section(root, "material", loc));
+  }
+  const bool repeated = node && node->is_array();
+  for (std::size_t i = 0; i < sections.size(); ++i) {
+    Section& s = sections[i];
+    s.reject_unknown(key_names("material"));
+    MaterialConfig m;
+    if (c.solver.method == "mpm")
+      read_mpm_material(s, m);
+    else
+      read_material(s, m, base_dir);
+    m.where = s.where("model");
+    if (i == 0) {
+      for (const char* key : kBindingKeys)
+        s.check(!s.has(key), key,
+                repeated ? "the first [[material]] is the material of everything the later ones "
+                           "do not claim; it takes no binding"
+                         : "binds a [[material]] entry after the first; a single [material] "
+                           "table applies to everything");
+      c.material = m;
+      continue;
+    }
+    read_material_binding(s, c, m);
+    if (c.solver.method == "newton")
+      s.fail_table(
+          "several [[material]] entries need solver.method = \"elastogen\" or \"mpm\" (the "
+          "Newton reference takes one material)");
+    if (c.solver.method != "mpm") {
+      s.check(m.model == c.material.model, "model",
+              fmt::format("the voxel solver needs one law for every [[material]] ('{}' in the "
+                          "first); they may differ in youngs_modulus, poisson_ratio and density",
+                          c.material.model));
+      s.check(m.target == c.material.target, "target",
+              fmt::format("the voxel solver needs one target for every [[material]] ('{}' in "
+                          "the first)",
+                          c.material.target));
+      s.check(m.target != "neural", "target",
+              "several [[material]] entries need target = \"arap\" or \"analytic\"");
+    }
+    c.material_regions.push_back(m);
+  }
+}
+
 void read_solver(const Section& s, SolverConfig& v) {
   v.method = s.choice("method", v.method, {"elastogen", "newton", "mpm"});
   v.relaxation = s.choice("relaxation", v.relaxation, {"jacobi", "chebyshev", "cg"});
@@ -365,11 +446,18 @@ void read_mpm(const Section& s, MpmConfig& m) {
   m.max_cells_per_substep = s.number("max_cells_per_substep", m.max_cells_per_substep);
   s.check(m.max_cells_per_substep > 0 && m.max_cells_per_substep <= 1, "max_cells_per_substep",
           fmt::format("must be in (0, 1], got {}", m.max_cells_per_substep));
+  m.rpic_damping = s.number("rpic_damping", m.rpic_damping);
+  s.check((m.rpic_damping >= 0 && m.rpic_damping <= 1) || m.rpic_damping == -1, "rpic_damping",
+          fmt::format("must be in [0, 1], or -1 for PIC, got {}", m.rpic_damping));
+  m.grid_velocity_scale = s.number("grid_velocity_scale", m.grid_velocity_scale);
+  s.check(m.grid_velocity_scale > 0 && m.grid_velocity_scale <= 1, "grid_velocity_scale",
+          fmt::format("must be in (0, 1], got {}", m.grid_velocity_scale));
 }
 
 std::vector<std::string> boundary_keys(const std::string& type) {
   if (type == "bounding_box") return {"type", "start", "end"};
-  if (type == "cuboid") return {"type", "lo", "hi", "velocity", "start", "end"};
+  if (type == "cuboid")
+    return {"type", "lo", "hi", "velocity", "motion", "reset_duration", "start", "end"};
   if (type == "particle_impulse") return {"type", "lo", "hi", "force", "start", "end"};
   if (type == "enforce_particle_translation")
     return {"type", "lo", "hi", "velocity", "start", "end"};
@@ -377,7 +465,8 @@ std::vector<std::string> boundary_keys(const std::string& type) {
     return {"type",  "point", "normal", "radius", "half_height", "velocity", "angular_velocity",
             "start", "end"};
   if (type == "surface_collider")
-    return {"type", "point", "normal", "surface", "friction", "start", "end"};
+    return {"type", "point", "normal",    "surface", "friction",
+            "lo",   "hi",    "cut_scale", "start",   "end"};
   return {"type", "normal", "layers", "start", "end"};  // release_particles_sequentially
 }
 
@@ -407,6 +496,13 @@ BoundaryConfig read_boundary(const Section& s) {
   }
   if (b.type == "cuboid" || b.type == "enforce_particle_translation")
     b.velocity = s.vec3("velocity");
+  if (b.type == "cuboid") {
+    b.motion = s.choice("motion", b.motion, {"fixed", "moving"});
+    b.reset_duration = s.number("reset_duration", b.reset_duration);
+    require_at_least(s, "reset_duration", b.reset_duration, 0);
+    if (b.reset_duration > 0)
+      s.check(b.end < 1e299, "reset_duration", "needs an end: the reset starts at end");
+  }
   if (b.type == "particle_impulse") b.force = s.vec3("force");
   if (b.type == "enforce_particle_velocity_rotation") {
     b.point = s.vec3("point");
@@ -421,9 +517,20 @@ BoundaryConfig read_boundary(const Section& s) {
   if (b.type == "surface_collider") {
     b.point = s.vec3("point");
     b.normal = unit_normal(s, s.vec3("normal"));
-    b.surface = s.choice("surface", b.surface, {"sticky", "slip", "separate"});
+    b.surface = s.choice("surface", b.surface, {"sticky", "slip", "separate", "cut"});
     b.friction = s.number("friction", b.friction);
     require_at_least(s, "friction", b.friction, 0);
+    if (b.surface == "cut") {
+      b.region.lo = s.vec3("lo");
+      b.region.hi = s.vec3("hi");
+      require_box(s, b.region.lo, b.region.hi);
+      b.cut_scale = s.number("cut_scale", b.cut_scale);
+      s.check(b.cut_scale >= 0 && b.cut_scale <= 1, "cut_scale",
+              fmt::format("must be in [0, 1], got {}", b.cut_scale));
+    } else {
+      for (const char* key : {"lo", "hi", "cut_scale"})
+        s.check(!s.has(key), key, "only applies to surface = \"cut\"");
+    }
   }
   if (b.type == "release_particles_sequentially") {
     b.normal = unit_normal(s, s.vec3("normal", b.normal));
@@ -601,6 +708,20 @@ void read_render(Section& s, const fs::path& base_dir, const Config& c, RenderCo
   r.splat_spacing = s.number("splat_spacing", r.splat_spacing);
   require_at_least(s, "splat_spacing", r.splat_spacing, 0.0);
   r.mp4 = s.choice("video", "none", {"none", "mp4"}) == "mp4";
+  r.layout = s.choice("layout", r.layout, {"gen4d", "physgaussian"});
+  r.fps = s.number("fps", r.fps);
+  s.check(!s.has("fps") || (r.fps > 0 && r.fps <= 1000), "fps",
+          fmt::format("must be in (0, 1000] frames per second, got {}", r.fps));
+  if (s.has("scenery")) {
+    const std::string file = s.string("scenery");
+    s.check(!file.empty(), "scenery", "must name a 3DGS PLY file");
+    const fs::path path = fs::absolute(base_dir / fs::path(file)).lexically_normal();
+    std::error_code ec;
+    s.check(fs::is_regular_file(path, ec), "scenery",
+            fmt::format("file not found: {}", path.string()));
+    s.replace("scenery", path.string());
+    r.scenery = path.string();
+  }
 }
 
 //! A mesh surface needs mesh geometry: every [[geometry]] part must be a mesh.
@@ -689,13 +810,7 @@ Config parse_deck(const std::string& text, const std::string& source_name,
   read_domain(table_section(root, "domain", loc), c);
   read_geometries(root, loc, fs::path(base_dir.empty() ? "." : base_dir), c);
   read_solver(table_section(root, "solver", loc), c.solver);
-  {
-    Section material = table_section(root, "material", loc);
-    if (c.solver.method == "mpm")
-      read_mpm_material(material, c.material);
-    else
-      read_material(material, c.material, fs::path(base_dir.empty() ? "." : base_dir));
-  }
+  read_materials(root, loc, fs::path(base_dir.empty() ? "." : base_dir), c);
   {
     const Section mpm = table_section(root, "mpm", loc);
     if (c.solver.method == "mpm")

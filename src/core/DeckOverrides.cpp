@@ -104,17 +104,23 @@ std::vector<std::string> names_of(const std::vector<KeySpec>& keys) {
 
 //! The table that receives the key: [table], or element `index` of [[table]] (appending when
 //! index equals the current size). Creates what is missing.
-toml::table& target_table(toml::table& root, const TableSpec& spec, const std::string& index,
-                          const std::string& where) {
+toml::table& target_table(toml::table& root, const TableSpec& spec, bool indexed,
+                          const std::string& index, const std::string& where) {
   const std::string name(spec.name);
-  if (!spec.is_array) {
+  if (!indexed) {
     if (!root.contains(name)) root.insert(name, toml::table{});
     toml::table* t = root.get_as<toml::table>(name);
+    if (!t && spec.may_repeat)
+      throw InputError(fmt::format("{}: the deck has [[{}]] tables; address one as {}.INDEX.KEY",
+                                   where, name, name));
     if (!t) throw InputError(fmt::format("{}: '{}' in the deck is not a table", where, name));
     return *t;
   }
   if (!root.contains(name)) root.insert(name, toml::array{});
   toml::array* arr = root.get_as<toml::array>(name);
+  if (!arr && spec.may_repeat)
+    throw InputError(fmt::format("{}: the deck has one [{}] table; its keys are written {}.KEY",
+                                 where, name, name));
   if (!arr || (!arr->empty() && !arr->is_array_of_tables()))
     throw InputError(fmt::format("{}: '{}' in the deck is not an array of tables", where, name));
   const std::size_t i = std::stoul(index);
@@ -154,12 +160,16 @@ std::string apply_one(toml::table& root, const std::string& text) {
   if (!spec)
     throw InputError(
         fmt::format("{}: unknown key '{}'{}", where, key, suggestion(parts[0], tables)));
-  if (spec->is_array && (parts.size() != 3 || !is_index(parts[1])))
+  const bool indexed = spec->is_array || (spec->may_repeat && parts.size() == 3);
+  if (indexed && (parts.size() != 3 || !is_index(parts[1])))
     throw InputError(fmt::format("{}: unknown key '{}' ([[{}]] keys are written {}.INDEX.KEY)",
                                  where, key, spec->name, spec->name));
-  if (!spec->is_array && parts.size() != 2)
-    throw InputError(fmt::format("{}: unknown key '{}' ([{}] keys are written {}.KEY)", where, key,
-                                 spec->name, spec->name));
+  if (!indexed && parts.size() != 2)
+    throw InputError(fmt::format(
+        "{}: unknown key '{}' ([{}] keys are written {}.KEY{})", where, key, spec->name, spec->name,
+        spec->may_repeat
+            ? ", [[" + std::string(spec->name) + "]] keys " + std::string(spec->name) + ".INDEX.KEY"
+            : ""));
   const std::string& leaf = parts.back();
   const KeySpec* key_spec = spec->find(leaf);
   if (!key_spec) {
@@ -168,9 +178,9 @@ std::string apply_one(toml::table& root, const std::string& text) {
                                  suggestion(leaf, names_of(spec->keys), prefix)));
   }
   toml::table node = typed_value(value, key_spec->kind, where);
-  toml::table& target = target_table(root, *spec, spec->is_array ? parts[1] : "", where);
+  toml::table& target = target_table(root, *spec, indexed, indexed ? parts[1] : "", where);
   node.get("v")->visit([&](auto&& v) { target.insert_or_assign(leaf, v); });
-  return spec->is_array ? fmt::format("{}.{}.{}", parts[0], std::stoul(parts[1]), leaf) : key;
+  return indexed ? fmt::format("{}.{}.{}", parts[0], std::stoul(parts[1]), leaf) : key;
 }
 
 }  // namespace

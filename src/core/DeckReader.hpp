@@ -26,6 +26,8 @@ struct TableSpec {
   std::string_view name;
   bool is_array;
   std::vector<KeySpec> keys;
+  //! [name] or [[name]]: one table, or several (--set addresses them as name.INDEX.KEY).
+  bool may_repeat = false;
   const KeySpec* find(std::string_view key) const;
 };
 

@@ -299,6 +299,10 @@ VoxelModel::VoxelModel(const Config& cfg) : cfg_(cfg) {
   if (!(cfg.dt > 0) || !(cfg.end_time > 0))
     throw InputError(src + ": keys 'simulation.dt' and 'simulation.end_time' must be > 0");
   materials::find_material(cfg.material.model);  // InputError for an unknown law
+  if (!cfg.material_regions.empty())
+    throw InputError(cfg.material_regions[0].where +
+                     ": several [[material]] entries are not supported by gen4d diagnose (it "
+                     "fits one material; model a region's difference as an effect)");
 
   h_ = cfg.voxel_size;
   auto shape = geometry::make_shape(cfg.geometry);

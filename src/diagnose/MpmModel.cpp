@@ -110,6 +110,10 @@ MpmModel::MpmModel(const Config& cfg) : cfg_(cfg) {
                       "[[boundary]] conditions: cuboid, surface_collider, particle_impulse, ...)",
                       cfg.source, what.second));
   const auto material = mpm::make_deck_material(cfg);  // InputError naming the key
+  if (!cfg.material_regions.empty())
+    throw InputError(cfg.material_regions[0].where +
+                     ": several [[material]] entries are not supported by gen4d diagnose (it "
+                     "fits one material)");
   elastic_ = law_of_mpm_model(cfg.material.model) != nullptr;
   cells_ = std::make_unique<VoxelModel>(cells_config(cfg));
   shape_ = geometry::make_shape(cfg.geometry);
@@ -203,6 +207,8 @@ Trace MpmModel::run(const Physics& ph, const std::vector<ChannelRequest>& req) c
     opt.remove_outside = cfg_.mpm.out_of_domain == "remove";
     opt.boundary_layers = cfg_.mpm.boundary_layers;
     opt.max_cells_per_substep = cfg_.mpm.max_cells_per_substep;
+    opt.rpic_damping = cfg_.mpm.rpic_damping;
+    opt.grid_velocity_scale = cfg_.mpm.grid_velocity_scale;
     opt.damping = ph.rayleigh_alpha;
     // The effects that act on the particles' stresses (see the header), per particle id; the
     // arrays are filled once the particles are seeded.

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <type_traits>
 
 #include "core/Log.hpp"
 #include "materials/Arap.hpp"
@@ -69,6 +71,16 @@ std::unique_ptr<neural::NeuralMtl> network_for(const VoxelSystem& sys, const Mat
   return neural::load_network(sys.grid().comm(), m.neural_weights, m.model, m.poisson_ratio,
                               m.youngs_modulus);
 }
+//! The global step's stiffness k: the local model's projection stiffness, the largest over
+//! the deck's materials (the step is a fixed-point iteration on the true residual, so k only
+//! sets its rate; the stiffest material needs the largest).
+double global_stiffness(const Config& cfg, const neural::NeuralMtl* net) {
+  const auto k_of = [](const auto& m) { return m.projection_stiffness(); };
+  double k = with_material(cfg.material, net, k_of);
+  for (const MaterialConfig& r : cfg.material_regions)
+    k = std::max(k, with_material(r, nullptr, k_of));
+  return k;
+}
 }  // namespace
 
 Elastodynamics::Elastodynamics(VoxelSystem& sys, const Config& cfg, PhaseTimers& timers)
@@ -77,8 +89,7 @@ Elastodynamics::Elastodynamics(VoxelSystem& sys, const Config& cfg, PhaseTimers&
       timers_(timers),
       net_(network_for(sys, cfg.material)),
       dt_(cfg.dt),
-      k_(with_material(cfg.material, net_.get(),
-                       [](const auto& m) { return m.projection_stiffness(); })),
+      k_(global_stiffness(cfg, net_.get())),
       solver_(sys, cfg.solver, k_, cfg.dt, timers),
       anderson_(cfg.solver.anderson_depth, sys, solver_.reducer()) {
   if (cfg.solver.method == "newton") {
@@ -286,7 +297,21 @@ parallel::ExactSum Elastodynamics::internal_forces(const std::vector<double>& x,
                                                    std::vector<double>& f) {
   // The runtime choice of local model picks one instantiation of the stencil loop.
   return with_material(cfg_.material, net_.get(), [&](const auto& m) {
-    return sys_.internal_forces(stress_of(m), x.data(), f.data());
+    if (cfg_.material_regions.empty())
+      return sys_.internal_forces(stress_of(m), x.data(), f.data());
+    // Several [[material]] entries share the law and target (the deck checks it): one stress
+    // per slot, of the same type.
+    using Law = std::decay_t<decltype(m)>;
+    PerSlot<decltype(stress_of(m))> slots;
+    slots.slots.push_back(stress_of(m));
+    for (const MaterialConfig& r : cfg_.material_regions)
+      with_material(r, nullptr, [&](const auto& mr) {
+        if constexpr (std::is_same_v<std::decay_t<decltype(mr)>, Law>)
+          slots.slots.push_back(stress_of(mr));
+        else
+          throw std::logic_error("[[material]] entries of different laws reached the voxel solver");
+      });
+    return sys_.internal_forces(slots, x.data(), f.data());
   });
 }
 

@@ -69,9 +69,16 @@ DeckObject build_deck_object(const Config& cfg) {
   for (const auto& g : cfg.geometry)
     obj.has_splat_parts = obj.has_splat_parts || g.type == "splats";
   obj.has_splats = obj.has_splat_parts || cfg.render.enabled;
+  const bool by_part = std::any_of(cfg.material_regions.begin(), cfg.material_regions.end(),
+                                   [](const MaterialConfig& m) { return !m.has_region; });
   if (!obj.has_splats) {
     obj.shape = geometry::make_shape(cfg.geometry);
     obj.layout = layout_domain(cfg, *obj.shape);
+    if (by_part)
+      for (std::size_t i = 0; i < n; ++i) {
+        obj.own_parts.push_back(make_part(cfg.geometry[i], i));
+        obj.parts.push_back(obj.own_parts.back().get());
+      }
     return obj;
   }
   if (n == 0) throw InputError("the object has no geometry parts");
@@ -109,6 +116,8 @@ DeckObject build_deck_object(const Config& cfg) {
                                gaussians::splats_from_shape(*parts[i], spacing, g.color));
     }
   }
+  if (by_part)
+    for (const auto& part : parts) obj.parts.push_back(part.get());
   if (parts.size() == 1)
     obj.shape = std::move(parts.front());
   else
@@ -141,11 +150,31 @@ Simulation::Simulation(MPI_Comm comm, const Config& cfg) : comm_(comm), cfg_(cfg
                        Eigen::Vector3d(layout_.origin[0], layout_.origin[1], layout_.origin[2]),
                        cfg_.voxel_size, c.start, hi, occ);
   }
+  // Occupancy 1 + the material slot of each solid voxel, judged at its centre.
+  std::vector<double> density{cfg_.material.density};
+  for (const MaterialConfig& m : cfg_.material_regions) density.push_back(m.density);
+  if (!cfg_.material_regions.empty()) {
+    const Box& c = grid_->adjacent_cells();
+    for (long k = c.start[2]; k < c.start[2] + c.count[2]; ++k)
+      for (long j = c.start[1]; j < c.start[1] + c.count[1]; ++j)
+        for (long i = c.start[0]; i < c.start[0] + c.count[0]; ++i) {
+          std::uint8_t& o = occ[c.index(i, j, k)];
+          if (!o) continue;
+          const double h = cfg_.voxel_size;
+          const Vec3d x{layout_.origin[0] + (i + 0.5) * h, layout_.origin[1] + (j + 0.5) * h,
+                        layout_.origin[2] + (k + 0.5) * h};
+          int part = -1;
+          for (std::size_t p = 0; p < object.parts.size() && part < 0; ++p)
+            if (object.parts[p]->inside(Eigen::Vector3d(x[0], x[1], x[2])))
+              part = static_cast<int>(p);
+          o = static_cast<std::uint8_t>(1 + material_slot(cfg_, part, x));
+        }
+  }
   std::vector<BoxRegion> held;
   for (const auto& f : cfg_.fixed) held.push_back(f.region);
   for (const auto& k : cfg_.kinematic) held.push_back(k.region);
   sys_ = std::make_unique<VoxelSystem>(*grid_, layout_.origin, cfg_.voxel_size, std::move(occ),
-                                       cfg_.material.density, held);
+                                       density, held);
   if (sys_->global_solid_cells() == 0)
     throw InputError(cfg_.source + ": [[geometry]] produces no solid voxel at voxel_size " +
                      fmt::format("{:g}", cfg_.voxel_size) + " m; use a smaller voxel_size");

@@ -47,6 +47,10 @@ struct DeckObject {
   bool has_splat_parts = false;
   bool has_splats = false;     //!< `splats` was built (splat parts or a [render] table)
   gaussians::SplatSet splats;  //!< every rank holds all of them
+  //! Each [[geometry]] part's own shape (owned by `shape`), when the deck has [[material]]
+  //! entries bound to parts; empty otherwise.
+  std::vector<const geometry::Shape*> parts;
+  std::vector<std::unique_ptr<geometry::Shape>> own_parts;  //!< where `shape` is not their union
 };
 DeckObject build_deck_object(const Config& cfg);
 

@@ -1,13 +1,17 @@
 #include "elastogen/VoxelSystem.hpp"
 
+#include <stdexcept>
 #include <utility>
 
 namespace gen4d::elastogen {
 
 VoxelSystem::VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, double h,
-                         std::vector<std::uint8_t> occupancy, double density,
+                         std::vector<std::uint8_t> occupancy, const std::vector<double>& density,
                          const std::vector<BoxRegion>& held)
-    : grid_(grid), origin_(origin), h_(h), occ_(std::move(occupancy)) {
+    : grid_(grid), origin_(origin), h_(h), occ_(std::move(occupancy)), slots_(density.size()) {
+  for (std::uint8_t o : occ_)
+    if (o > slots_)
+      throw std::logic_error("VoxelSystem: occupancy names a material slot without a density");
   const Box& G = ghosted();
   const Box& C = cells();
   for (int m = 0; m < 8; ++m)
@@ -39,13 +43,14 @@ VoxelSystem::VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, do
     ++members[cls];
   }
   for (int c = 0; c < 4; ++c) stencil_class_[c] /= members[c];
-  for (int m = 0; m < 8; ++m) interior_mass_ += 0.125 * (density * h * h * h);
+  for (int m = 0; m < 8; ++m) interior_mass_ += 0.125 * (density.at(0) * h * h * h);
   row_.assign(3 * G.count[0], 0.0);
   adj_.assign(G.size(), 0);
   mass_.assign(G.size(), 0.0);
   free_.assign(G.size(), 0);
   fixed_.assign(G.size(), 0);
-  const double cell_mass = density * h * h * h;
+  std::vector<double> cell_mass(density.size());
+  for (std::size_t s = 0; s < density.size(); ++s) cell_mass[s] = density[s] * h * h * h;
   const Box& O = owned();
   long local_free = 0, local_solid = 0;
   for (long k = O.start[2]; k < O.start[2] + O.count[2]; ++k)
@@ -57,7 +62,7 @@ VoxelSystem::VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, do
                      ck = k - 1 + ((cell >> 2) & 1);
           if (solid(ci, cj, ck)) {
             adj_[n] |= static_cast<std::uint8_t>(1u << cell);
-            mass_[n] += 0.125 * cell_mass;
+            mass_[n] += 0.125 * cell_mass[occ_[C.index(ci, cj, ck)] - 1u];
           }
         }
         bool is_fixed = false;
@@ -106,7 +111,10 @@ void VoxelSystem::operator_rows(double k, double inv_dt2, const double* delta, E
   const double cf = kh * stencil_class_[1], ce = kh * stencil_class_[2],
                cc = kh * stencil_class_[3];
   const long Y = 3 * gx, Z = 3 * gxy;
-  auto interior = [&](std::size_t n) { return free_[n] && adj_[n] == 0xFF; };
+  // Interior: eight solid voxels of slot 0's density (other nodes take the general rows).
+  auto interior = [&](std::size_t n) {
+    return free_[n] && adj_[n] == 0xFF && mass_[n] == interior_mass_;
+  };
   for (long kk = O.start[2]; kk < O.start[2] + O.count[2]; ++kk)
     for (long j = O.start[1]; j < O.start[1] + O.count[1]; ++j) {
       const long i_end = O.start[0] + O.count[0];

@@ -37,10 +37,11 @@ void for_owned(const Box& O, const Box& G, F&& f) {
 //! the decomposition: the same arithmetic runs whatever the rank count.
 class VoxelSystem {
  public:
-  //! `occupancy` covers grid.adjacent_cells() (1 = solid), as voxelized by this rank; nodes
-  //! inside a `held` region are not unknowns (fixed or moved on a prescribed path).
+  //! `occupancy` covers grid.adjacent_cells() (0 = empty, s + 1 = solid of material slot s),
+  //! as voxelized by this rank, and `density` holds each slot's density; nodes inside a `held`
+  //! region are not unknowns (fixed or moved on a prescribed path).
   VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, double h,
-              std::vector<std::uint8_t> occupancy, double density,
+              std::vector<std::uint8_t> occupancy, const std::vector<double>& density,
               const std::vector<BoxRegion>& held);
 
   const parallel::NodeGrid& grid() const { return grid_; }
@@ -54,6 +55,7 @@ class VoxelSystem {
   }
   bool solid(long ci, long cj, long ck) const;
   const std::vector<std::uint8_t>& occupancy() const { return occ_; }
+  std::size_t material_slots() const { return slots_; }
 
   //! Lumped mass per ghosted node (kg); 0 for nodes touching no solid voxel.
   const std::vector<double>& mass() const { return mass_; }
@@ -100,11 +102,22 @@ class VoxelSystem {
   long global_solid_ = 0, global_free_ = 0;
   std::array<double, 27> interior_stencil_{};  // unit-cube coefficients, x fastest
   std::array<double, 4> stencil_class_{};      // mean coefficient: centre, face, edge, corner
-  double interior_mass_ = 0;                   // lumped mass of a node with 8 solid voxels
-  mutable std::vector<double> row_;            // one row of operator values
-  std::array<long, 27> interior_offset_{};     // ghosted linear offsets of the 27 neighbours
-  std::array<long, 8> corner_offset_{};  // ghosted linear offset of corner m from the cell base
+  double interior_mass_ = 0;                // lumped mass of a node with 8 solid voxels of slot 0
+  std::size_t slots_ = 1;                   // material slots
+  mutable std::vector<double> row_;         // one row of operator values
+  std::array<long, 27> interior_offset_{};  // ghosted linear offsets of the 27 neighbours
+  std::array<long, 8> corner_offset_{};     // ghosted linear offset of corner m from the cell base
 };
+
+//! A stress callback per material slot: internal_forces calls slots[s] in the voxels of slot s.
+template <class StressFn>
+struct PerSlot {
+  std::vector<StressFn> slots;
+};
+template <class T>
+struct IsPerSlot : std::false_type {};
+template <class T>
+struct IsPerSlot<PerSlot<T>> : std::true_type {};
 
 template <class StressFn>
 parallel::ExactSum VoxelSystem::internal_forces(const StressFn& stress, const double* x,
@@ -125,21 +138,30 @@ parallel::ExactSum VoxelSystem::internal_forces(const StressFn& stress, const do
         double xe[8][3], fe[8][3] = {};
         for (int m = 0; m < 8; ++m)
           for (int a = 0; a < 3; ++a) xe[m][a] = x[3 * (base + corner_offset_[m]) + a];
-        double psi = 0;
-        if constexpr (std::is_invocable_r_v<double, const StressFn&, const double*, double*, int>) {
-          // Batched material (NeuralMTL): all eight quadrature points in one call.
-          double F[8][9], P[8][9];
-          for (int q = 0; q < 8; ++q) deformation_gradient(s, q, xe, inv_h, F[q]);
-          psi = stress(&F[0][0], &P[0][0], 8);
-          for (int q = 0; q < 8; ++q) add_node_forces(s, q, P[q], w * inv_h, fe);
-        } else {
-          for (int q = 0; q < 8; ++q) {
-            double F[9], P[9];
-            deformation_gradient(s, q, xe, inv_h, F);
-            psi += stress(F, P);
-            add_node_forces(s, q, P, w * inv_h, fe);
+        const auto cell = [&](const auto& fn) {
+          using Fn = std::decay_t<decltype(fn)>;
+          double psi = 0;
+          if constexpr (std::is_invocable_r_v<double, const Fn&, const double*, double*, int>) {
+            // Batched material (NeuralMTL): all eight quadrature points in one call.
+            double F[8][9], P[8][9];
+            for (int q = 0; q < 8; ++q) deformation_gradient(s, q, xe, inv_h, F[q]);
+            psi = fn(&F[0][0], &P[0][0], 8);
+            for (int q = 0; q < 8; ++q) add_node_forces(s, q, P[q], w * inv_h, fe);
+          } else {
+            for (int q = 0; q < 8; ++q) {
+              double F[9], P[9];
+              deformation_gradient(s, q, xe, inv_h, F);
+              psi += fn(F, P);
+              add_node_forces(s, q, P, w * inv_h, fe);
+            }
           }
-        }
+          return psi;
+        };
+        double psi = 0;
+        if constexpr (IsPerSlot<StressFn>::value)
+          psi = cell(stress.slots[occ_[c] - 1u]);
+        else
+          psi = cell(stress);
         if (oc.contains(ci, cj, ck)) energy.add(w * psi);
         double* dst = &cell_forces_[24 * c];
         for (int m = 0; m < 8; ++m)

@@ -39,7 +39,9 @@
 // [[geometry]] type "splats": the trained PLY with scale s, rotate_axis / rotate_degrees the
 // axis and angle of the composite R, translate 1 - s c, and opacity_threshold; or, for a PLY
 // written from the preprocessed selection, that file untransformed (the only way to honour
-// sim_area). gen4d keeps opacity == threshold, PhysGaussian drops it.
+// sim_area; the Gaussians outside it, written to their own PLY, become [render] scenery drawn
+// unmoved in every frame, as PhysGaussian draws them). gen4d keeps opacity == threshold,
+// PhysGaussian drops it.
 // Materials (E -> youngs_modulus, nu -> poisson_ratio, density):
 // - jelly -> fixed_corotated.
 // - metal -> von_mises. PhysGaussian yields when |dev tau| > yield_stress, gen4d when
@@ -62,13 +64,19 @@
 //   no stress for it (its snow is stress-free); gen4d's is a snow model.
 // particle_filling -> the splats part's fill_cells (its n_grid rescaled from the simulation box
 // to the object; its other keys at PhysGaussian's defaults, with a note where they differ).
-// additional_material_params, rpic_damping != 0, grid_v_damping_scale < 1 and pic_damping
-// have no gen4d key: each present one is listed in the notes.
+// rpic_damping -> mpm.rpic_damping (r in (0, 1]: C -> (1 - r) C + r skew(C) in P2G; below
+// -0.001: PIC, -1); other non-zero values (PhysGaussian extrapolates the blend) are left out with a
+// note. grid_v_damping_scale in (0, 1) -> mpm.grid_velocity_scale (grid velocities times it every
+// substep, after gravity). additional_material_params -> [[material]] entries after the first,
+// each the base model with the box's E, nu and density, bound to lo / hi = point -/+ size.
+// pic_damping has no gen4d key (PhysGaussian's code reads it and never uses it).
 // Boundary conditions ([[boundary]]; start_time -> start, end_time -> end, a start before 0 is
 // 0, an entry that never acts is left out with a note):
-// - cuboid -> cuboid, lo / hi = point -/+ size, velocity. PhysGaussian moves the box with its
-//   velocity and, with reset = 1, zeroes every grid velocity for 15 substeps after end_time;
-//   gen4d's box is fixed and has no reset.
+// - cuboid -> cuboid, lo / hi = point -/+ size, velocity, motion = "moving" when the velocity
+//   is not zero (PhysGaussian moves the box by velocity dt every active substep). reset = 1 ->
+//   reset_duration = 15 substep_dt: every grid velocity zeroed for 15 substeps after end_time.
+//   PhysGaussian's reset also zeroes them at every substep before start_time (its test is "not
+//   active"); gen4d does not, with a note when start_time > 0.
 // - particle_impulse -> particle_impulse over point -/+ size (default (1,1,1) -/+ (1,1,1)),
 //   end = start + num_dt substep_dt. PhysGaussian gives every particle in the box the velocity
 //   change force dt / m_p; gen4d shares a total force by mass. The total is force times the
@@ -79,7 +87,11 @@
 // - enforce_particle_translation -> enforce_particle_translation, lo / hi = point -/+ size.
 // - surface_collider -> surface_collider with point, normal, surface, friction. PhysGaussian
 //   computes the slip / separate velocity and then stores zero (every non-cut collider
-//   sticks); gen4d keeps slip and separate as written. "cut" (a hard-coded z band) is left out.
+//   sticks); gen4d keeps slip and separate as written. "cut" -> surface "cut" with the cut
+//   lo = (0, 0, 0.4), hi = (grid_lim, grid_lim, 0.53) and cut_scale 0.3 (PhysGaussian's
+//   hard-coded band 0.4 <= z <= 0.53): there the velocity keeps 0.3 of its tangential part,
+//   elsewhere behind the plane it stops. PhysGaussian zeroes the y component instead of the
+//   normal one (the same for a normal along y; noted otherwise); it ignores friction.
 // - release_particles_sequentially -> release_particles_sequentially with normal the axis
 //   pointing from start_position to end_position and layers = num_layers (PhysGaussian
 //   overrides num_layers with 50). PhysGaussian holds slabs of the span
@@ -100,8 +112,14 @@
 // PhysGaussian's image k (the state after k + 1 frames) uses the view of frame k; gen4d's
 // frame k + 1 shows that state, so the deck starts one step back: azimuth + delta_a,
 // elevation - delta_e, s (init_radius - delta_r), d_azimuth = -delta_a, d_elevation =
-// delta_e, d_radius = s delta_r. default_camera_index >= 0 (a cameras.json view in the
-// trained space) and show_hint are not honoured; the deck's camera then frames the object.
+// delta_e, d_radius = s delta_r. The orbit's width, height and fov_y are those of the model's
+// first cameras.json entry (gen4d's orbit has square pixels). default_camera_index >= 0: that
+// entry of the model's cameras.json, carried into the simulation space (position by the map,
+// camera-to-world rotation R C; size and focal lengths kept) and written beside the deck;
+// without a cameras.json the deck's camera frames the object. show_hint is not honoured.
+// Images: [render] layout "physgaussian" (gs_simulation.py's names: image k, f"{k}.png"
+// zero-padded to 8 characters, shows the state after k + 1 frames; video output.mp4), fps =
+// int(1 / frame_dt), a black background (PhysGaussian's default).
 #include "gaussians/PhysGaussianConfig.hpp"
 
 #include <fmt/format.h>
@@ -789,7 +807,8 @@ PhysGaussianPreprocessed preprocess_physgaussian(const SplatSet& trained,
 
 std::string physgaussian_to_deck(const PhysGaussianParams& p, const std::string& ply_path,
                                  const PhysGaussianPreprocessed& pre, PlySpace space,
-                                 std::vector<std::string>* notes_out) {
+                                 std::vector<std::string>* notes_out,
+                                 const PhysGaussianDeckFiles* files) {
   std::vector<std::string> notes;
   auto note = [&](std::string s) { notes.push_back(std::move(s)); };
   auto fail = [&](const std::string& key, const std::string& msg) {
@@ -844,77 +863,108 @@ std::string physgaussian_to_deck(const PhysGaussianParams& p, const std::string&
         "PhysGaussian drops it");
   } else {
     d += "opacity_threshold = 0\n";
-    if (p.sim_area && pre.rest.size())
+    if (p.sim_area && pre.rest.size() && !(files && !files->scenery_ply.empty()))
       note(
-          fmt::format("sim_area: the {} Gaussians outside it are not drawn (gen4d renders "
-                      "only the deck's geometry)",
+          fmt::format("sim_area: the {} Gaussians outside it are not drawn (no scenery file "
+                      "given)",
                       pre.rest.size()));
+    else if (p.sim_area && pre.rest.size())
+      note(
+          fmt::format("sim_area: the {} Gaussians outside it are drawn unmoved from {} "
+                      "([render] scenery)",
+                      pre.rest.size(), files->scenery_ply));
   }
 
-  // Material.
-  const double mu = p.E / (2 * (1 + p.nu));
-  d += "\n[material]\n";
+  // Material: one [material], or [[material]] entries for additional_material_params (the
+  // base model with the box's E, nu and density; later entries win where boxes overlap).
   std::string model;
   if (p.material == "jelly") model = "fixed_corotated";
   if (p.material == "metal" || p.material == "plasticine") model = "von_mises";
   if (p.material == "sand") model = "drucker_prager";
   if (p.material == "foam") model = "herschel_bulkley";
   if (p.material == "snow") model = "snow";
-  d += fmt::format("model = {}\n", quoted(model));
-  d += fmt::format("youngs_modulus = {}\n", num(p.E));
-  d += fmt::format("poisson_ratio = {}\n", num(p.nu));
-  d += fmt::format("density = {}\n", num(p.density));
-  if (p.nu >= 0.5) note("nu: 0.5 is accepted by PhysGaussian, gen4d needs nu < 0.5");
-  note(fmt::format("material: {} -> {}", p.material, model));
-  if (model == "von_mises") {
-    d += fmt::format("yield_stress = {}\n", num(std::sqrt(1.5) * p.yield_stress));
-    note(
-        fmt::format("yield_stress: PhysGaussian's |dev tau| bound {} -> uniaxial sigma_y = "
-                    "sqrt(3/2) x that = {}",
-                    num(p.yield_stress), num(std::sqrt(1.5) * p.yield_stress)));
-    if (p.hardening == 1) {
-      d += fmt::format("hardening = {}\n", num(3 * mu * p.xi));
-      note(fmt::format("hardening = 1, xi = {}: linear hardening modulus 3 mu xi = {} Pa",
-                       num(p.xi), num(3 * mu * p.xi)));
+  // The keys of the model with these elastic constants; `explain` adds the notes (once).
+  const auto material_keys = [&](double E, double nu, double density, bool explain) {
+    std::string m;
+    auto say = [&](std::string s) {
+      if (explain) note(std::move(s));
+    };
+    const double mu = E / (2 * (1 + nu));
+    m += fmt::format("model = {}\n", quoted(model));
+    m += fmt::format("youngs_modulus = {}\n", num(E));
+    m += fmt::format("poisson_ratio = {}\n", num(nu));
+    m += fmt::format("density = {}\n", num(density));
+    if (nu >= 0.5) say("nu: 0.5 is accepted by PhysGaussian, gen4d needs nu < 0.5");
+    say(fmt::format("material: {} -> {}", p.material, model));
+    if (model == "von_mises") {
+      m += fmt::format("yield_stress = {}\n", num(std::sqrt(1.5) * p.yield_stress));
+      say(
+          fmt::format("yield_stress: PhysGaussian's |dev tau| bound {} -> uniaxial sigma_y = "
+                      "sqrt(3/2) x that = {}",
+                      num(p.yield_stress), num(std::sqrt(1.5) * p.yield_stress)));
+      if (p.hardening == 1) {
+        m += fmt::format("hardening = {}\n", num(3 * mu * p.xi));
+        say(fmt::format("hardening = 1, xi = {}: linear hardening modulus 3 mu xi = {} Pa",
+                        num(p.xi), num(3 * mu * p.xi)));
+      }
+      if (p.material == "plasticine")
+        say(
+            fmt::format("softening = {}: not honoured (gen4d's von_mises has no softening); "
+                        "PhysGaussian's plasticine stress is fixed corotated, gen4d's von_mises "
+                        "StVK-Hencky",
+                        num(p.softening)));
+    } else if (p.hardening == 1 || p.xi != 0) {
+      say("hardening / xi: only metal and plasticine use them");
     }
-    if (p.material == "plasticine")
-      note(
-          fmt::format("softening = {}: not honoured (gen4d's von_mises has no softening); "
-                      "PhysGaussian's plasticine stress is fixed corotated, gen4d's von_mises "
-                      "StVK-Hencky",
-                      num(p.softening)));
-  } else if (p.hardening == 1 || p.xi != 0) {
-    note("hardening / xi: only metal and plasticine use them");
-  }
-  if (model == "drucker_prager") {
-    d += fmt::format("friction_angle = {}\n", num(p.friction_angle));
-    note(
-        "sand: PhysGaussian gives sand particles uniform volumes, gen4d shares each cell's "
-        "volume among its Gaussians");
-  }
-  if (model == "herschel_bulkley") {
-    d += fmt::format("yield_stress = {}\n", num(p.yield_stress / std::sqrt(3.0)));
-    d += fmt::format("consistency = {}\n", num(p.plastic_viscosity / 2));
-    d += "flow_index = 1\n";
-    note(
-        "foam: yield_stress / sqrt(3) -> shear yield stress, plastic_viscosity / 2 -> "
-        "consistency (PhysGaussian relaxes with mu tr(b) / 3 in place of mu)");
-  }
-  if (model == "snow")
-    note(
-        "snow: PhysGaussian computes no stress for snow (no return mapping); gen4d's snow "
-        "model is used instead");
-  for (const auto& box : p.additional_material_params)
+    if (model == "drucker_prager") {
+      m += fmt::format("friction_angle = {}\n", num(p.friction_angle));
+      say("sand: PhysGaussian gives sand particles uniform volumes, gen4d shares each cell's "
+          "volume among its Gaussians");
+    }
+    if (model == "herschel_bulkley") {
+      m += fmt::format("yield_stress = {}\n", num(p.yield_stress / std::sqrt(3.0)));
+      m += fmt::format("consistency = {}\n", num(p.plastic_viscosity / 2));
+      m += "flow_index = 1\n";
+      say("foam: yield_stress / sqrt(3) -> shear yield stress, plastic_viscosity / 2 -> "
+          "consistency (PhysGaussian relaxes with mu tr(b) / 3 in place of mu)");
+    }
+    if (model == "snow")
+      say("snow: PhysGaussian computes no stress for snow (no return mapping); gen4d's snow "
+          "model is used instead");
+    return m;
+  };
+  if (p.additional_material_params.empty()) {
+    d += "\n[material]\n" + material_keys(p.E, p.nu, p.density, true);
+  } else {
+    d += "\n[[material]]\n" + material_keys(p.E, p.nu, p.density, true);
+    for (const auto& box : p.additional_material_params) {
+      d += fmt::format("\n[[material]]  # additional_material_params, line {}\n", box.line);
+      d += fmt::format("lo = {}\n", vec(add(box.point, box.size, -1)));
+      d += fmt::format("hi = {}\n", vec(add(box.point, box.size, 1)));
+      d += material_keys(box.E, box.nu, box.density, false);
+    }
     note(fmt::format(
-        "additional_material_params (line {}): not honoured (gen4d has one material "
-        "per deck): E {} nu {} density {} in {} -/+ {}",
-        box.line, num(box.E), num(box.nu), num(box.density), vec(box.point), vec(box.size)));
-  if (p.rpic_damping != 0)
-    note(fmt::format("rpic_damping = {}: not honoured (gen4d transfers with APIC)",
-                     num(p.rpic_damping)));
-  if (p.grid_v_damping_scale < 1)
-    note(fmt::format("grid_v_damping_scale = {}: not honoured (no grid damping key)",
-                     num(p.grid_v_damping_scale)));
+        "additional_material_params: {} box(es) -> [[material]] entries bound to lo/hi = point "
+        "-/+ size at the rest positions (PhysGaussian's boxes are open, gen4d's closed)",
+        p.additional_material_params.size()));
+  }
+  std::string mpm_damping;  // [mpm] keys of rpic_damping and grid_v_damping_scale
+  if (p.rpic_damping > 0 && p.rpic_damping <= 1)
+    mpm_damping += fmt::format("rpic_damping = {}\n", num(p.rpic_damping));
+  else if (p.rpic_damping < -0.001)
+    mpm_damping += "rpic_damping = -1\n";  // PhysGaussian's PIC
+  else if (p.rpic_damping != 0)
+    note(
+        fmt::format("rpic_damping = {}: not honoured (gen4d blends C towards its skew part "
+                    "for values in [0, 1] and uses PIC below -0.001); APIC is used",
+                    num(p.rpic_damping)));
+  if (p.grid_v_damping_scale > 0 && p.grid_v_damping_scale < 1)
+    mpm_damping += fmt::format("grid_velocity_scale = {}\n", num(p.grid_v_damping_scale));
+  else if (p.grid_v_damping_scale <= 0)
+    note(
+        fmt::format("grid_v_damping_scale = {}: not honoured (gen4d's grid_velocity_scale is "
+                    "in (0, 1])",
+                    num(p.grid_v_damping_scale)));
   if (p.pic_damping) note("pic_damping: read by PhysGaussian but used by none of its code");
   if (p.particle_filling) {
     const PhysGaussianFilling& f = *p.particle_filling;
@@ -944,6 +994,7 @@ std::string physgaussian_to_deck(const PhysGaussianParams& p, const std::string&
   d += fmt::format("hi = {}\n", vec({p.grid_lim, p.grid_lim, p.grid_lim}));
   d += "substep = \"fixed\"\n";
   d += fmt::format("boundary_layers = {}\n", walls ? 3 : 0);
+  d += mpm_damping;
   if (!walls) note("bounding_box: absent, so no grid walls (mpm.boundary_layers = 0)");
 
   d += fmt::format("\n[output]\nframe_interval = {}\n", num(p.frame_dt));
@@ -973,12 +1024,15 @@ std::string physgaussian_to_deck(const PhysGaussianParams& p, const std::string&
     }
     if (b.type == "cuboid") {
       e += fmt::format("velocity = {}\n", vec(b.velocity));
-      if (nonzero(b.velocity))
-        note(fmt::format("{}: PhysGaussian moves the cuboid with its velocity, gen4d's stays put",
-                         where));
-      if (b.reset == 1)
-        note(fmt::format("{}: reset = 1 (grid zeroed for 15 substeps after end_time) not honoured",
-                         where));
+      if (nonzero(b.velocity)) e += "motion = \"moving\"\n";
+      if (b.reset == 1) {
+        e += fmt::format("reset_duration = {}\n", num(15 * p.substep_dt));
+        if (start > 0)
+          note(
+              fmt::format("{}: reset = 1 zeroes the grid for 15 substeps after end_time; "
+                          "PhysGaussian also zeroes it before start_time ({}), gen4d does not",
+                          where, num(start)));
+      }
     }
     if (b.type == "enforce_particle_translation")
       e += fmt::format("velocity = {}\n", vec(b.velocity));
@@ -1002,18 +1056,24 @@ std::string physgaussian_to_deck(const PhysGaussianParams& p, const std::string&
                       where, count));
     }
     if (b.type == "surface_collider") {
-      if (b.surface == "cut") {
-        note(
-            fmt::format("{}: surface \"cut\" (PhysGaussian's hard-coded z band) not honoured; "
-                        "left out",
-                        where));
-        continue;
-      }
+      const PgVec3 n = normalized(b.normal);
       e += fmt::format("point = {}\n", vec(b.point));
-      e += fmt::format("normal = {}\n", vec(normalized(b.normal)));
+      e += fmt::format("normal = {}\n", vec(n));
       e += fmt::format("surface = {}\n", quoted(b.surface));
-      e += fmt::format("friction = {}\n", num(b.friction));
-      if (b.surface != "sticky")
+      if (b.surface == "cut") {
+        // PhysGaussian's hard-coded cut: 0.4 <= z <= 0.53, velocity x 0.3 without its y part.
+        e += fmt::format("lo = {}\n", vec({0, 0, 0.4}));
+        e += fmt::format("hi = {}\n", vec({p.grid_lim, p.grid_lim, 0.53}));
+        e += "cut_scale = 0.3\n";
+        if (std::fabs(n[1]) != 1)
+          note(
+              fmt::format("{}: surface \"cut\": gen4d removes the normal velocity {} in the cut "
+                          "(0.4 <= z <= 0.53), PhysGaussian the y component",
+                          where, vec(n)));
+      } else {
+        e += fmt::format("friction = {}\n", num(b.friction));
+      }
+      if (b.surface != "sticky" && b.surface != "cut")
         note(
             fmt::format("{}: surface \"{}\" kept as written (PhysGaussian's collider zeroes the "
                         "velocity of every node behind it)",
@@ -1057,7 +1117,24 @@ std::string physgaussian_to_deck(const PhysGaussianParams& p, const std::string&
         "particle conditions: PhysGaussian selects their particles once at rest, gen4d at "
         "every substep");
 
-  // Camera.
+  // Images and camera.
+  std::string r = "\n[render]\nlayout = \"physgaussian\"\nbackground = [0, 0, 0]\n";
+  note(
+      "render: gs_simulation.py's images (OUT/0000.png for the state after one frame, ...; "
+      "with --mp4, OUT/output.mp4) on its default black background (--white_bg: set "
+      "render.background = [1, 1, 1])");
+  const double rate = std::floor(1.0 / p.frame_dt);  // gs_simulation.py: int(1.0 / frame_dt)
+  if (rate >= 1 && rate <= 1000)
+    r += fmt::format("fps = {}\n", num(rate));
+  else
+    note(
+        fmt::format("frame_dt = {}: PhysGaussian's video rate int(1 / frame_dt) = {} is not "
+                    "usable; gen4d's default video rate applies",
+                    num(p.frame_dt), num(rate)));
+  if (space == PlySpace::Simulation && files && !files->scenery_ply.empty() && pre.rest.size())
+    r += fmt::format("scenery = {}\n", quoted(files->scenery_ply));
+  const std::vector<Camera> no_cameras;
+  const std::vector<Camera>& cams = files ? files->cameras : no_cameras;
   if (p.default_camera_index < 0 && p.init_azimuthm && p.init_elevation && p.init_radius) {
     const PgVec3 up = normalized(p.mpm_space_vertical_upward_axis);
     // PhysGaussian's frame in the trained space, carried to the simulation space.
@@ -1084,26 +1161,57 @@ std::string physgaussian_to_deck(const PhysGaussianParams& p, const std::string&
     if (!(el > -90 && el < 90))
       fail("init_elevation", fmt::format("the orbit's elevation {} is outside (-90, 90)", num(el)));
     if (!(rad > 0)) fail("init_radius", "the orbit's radius must be > 0");
-    d += "\n[render]\ncamera = \"orbit\"\n";
-    d += fmt::format("center = {}\n", vec(p.mpm_space_viewpoint_center));
-    d += fmt::format("up = {}\n", vec(p.mpm_space_vertical_upward_axis));
-    d += fmt::format("azimuth = {}\n", num(az));
-    d += fmt::format("elevation = {}\n", num(el));
-    d += fmt::format("radius = {}\n", num(rad));
+    r += "camera = \"orbit\"\n";
+    r += fmt::format("center = {}\n", vec(p.mpm_space_viewpoint_center));
+    r += fmt::format("up = {}\n", vec(p.mpm_space_vertical_upward_axis));
+    r += fmt::format("azimuth = {}\n", num(az));
+    r += fmt::format("elevation = {}\n", num(el));
+    r += fmt::format("radius = {}\n", num(rad));
     if (p.move_camera) {
-      d += fmt::format("d_azimuth = {}\n", num(daz));
-      d += fmt::format("d_elevation = {}\n", num(del));
-      d += fmt::format("d_radius = {}\n", num(drad));
+      r += fmt::format("d_azimuth = {}\n", num(daz));
+      r += fmt::format("d_elevation = {}\n", num(del));
+      r += fmt::format("d_radius = {}\n", num(drad));
     }
-    note(
-        "camera: PhysGaussian's orbit in the simulation space (its field of view and image size "
-        "come from cameras.json, which the deck does not read: gen4d's defaults apply)");
+    if (!cams.empty()) {
+      // get_camera_view replaces the pose of cameras.json's first entry and keeps the rest.
+      const Camera& c0 = cams.front();
+      r += fmt::format("width = {}\nheight = {}\n", c0.width, c0.height);
+      r += fmt::format("fov_y = {}\n", num(c0.fov_y() * 180 / kPi));
+      note(fmt::format(
+          "camera: PhysGaussian's orbit in the simulation space, with the image size {} x {} and "
+          "vertical field of view of cameras.json's first entry",
+          c0.width, c0.height));
+      if (std::fabs(c0.fx - c0.fy) > 1e-6 * c0.fy)
+        note(
+            fmt::format("camera: cameras.json's fx {} differs from fy {}; gen4d's orbit has "
+                        "square pixels (fx = fy)",
+                        num(c0.fx), num(c0.fy)));
+    } else {
+      note(
+          "camera: PhysGaussian's orbit in the simulation space (its field of view and image "
+          "size come from cameras.json, which the model lacks: gen4d's defaults apply)");
+    }
+  } else if (p.default_camera_index >= 0 && files && !files->cameras_json.empty() &&
+             !cams.empty()) {
+    if (static_cast<std::size_t>(p.default_camera_index) >= cams.size())
+      fail("default_camera_index", fmt::format("{} is beyond the model's cameras.json ({} entries)",
+                                               p.default_camera_index, cams.size()));
+    r += fmt::format("camera = {}\n",
+                     quoted(fmt::format("{}:{}", files->cameras_json, p.default_camera_index)));
+    note(fmt::format(
+        "default_camera_index = {}: cameras.json's view carried into the simulation space "
+        "({}; image size and focal lengths kept). gen4d culls splats nearer than 0.2 to the "
+        "camera in simulation units, PhysGaussian in trained units (scale {})",
+        p.default_camera_index, files->cameras_json, num(s)));
   } else {
-    note(
-        fmt::format("default_camera_index = {}: a cameras.json view (trained space) is not "
-                    "honoured; the deck's camera frames the object",
-                    p.default_camera_index));
+    r += "camera = \"auto\"\n";
+    note(fmt::format("default_camera_index = {}: {}; the deck's camera frames the object",
+                     p.default_camera_index,
+                     p.default_camera_index >= 0
+                         ? "the model has no cameras.json"
+                         : "init_azimuthm, init_elevation or init_radius missing"));
   }
+  d += r;
   if (p.show_hint) note("show_hint: PhysGaussian prints the camera and exits; ignored");
   if (notes_out) *notes_out = std::move(notes);
   return d;

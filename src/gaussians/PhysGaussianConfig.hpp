@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "gaussians/Camera.hpp"
 #include "gaussians/Splats.hpp"
 
 namespace gen4d::gaussians {
@@ -166,13 +167,27 @@ enum class PlySpace {
   Simulation,  //!< ply_path holds PhysGaussianPreprocessed::selected (crop and map applied)
 };
 
+//! Files beside the deck that it refers to (paths as the deck writes them, relative to its
+//! folder), and the model's cameras.
+struct PhysGaussianDeckFiles {
+  //! "" or pre.rest written in simulation space (PlySpace::Simulation only): [render] scenery.
+  std::string scenery_ply;
+  //! "" or the model's cameras.json mapped to simulation space (cameras_to_simulation).
+  std::string cameras_json;
+  //! The model's cameras.json entries (trained space); empty when the model has none.
+  std::vector<Camera> cameras;
+};
+
 //! The equivalent gen4d deck (TOML text, solver.method = "mpm") for running the object of
 //! `pre` (from preprocess_physgaussian of the same params) stored at ply_path. `notes`, when
 //! given, receives one line per mapping decision, per behaviour of PhysGaussian that gen4d
-//! does differently, and per key gen4d cannot honour yet. InputError for a config gen4d
-//! cannot run at all (frame_num < 1, elevations outside (-90, 90)).
+//! does differently, and per key gen4d cannot honour yet. `files`, when given, adds the
+//! scenery outside sim_area, the view of default_camera_index >= 0 and cameras.json's image
+//! size and field of view for the orbit. InputError for a config gen4d cannot run at all
+//! (frame_num < 1, elevations outside (-90, 90), default_camera_index beyond the cameras).
 std::string physgaussian_to_deck(const PhysGaussianParams& params, const std::string& ply_path,
                                  const PhysGaussianPreprocessed& pre, PlySpace space,
-                                 std::vector<std::string>* notes = nullptr);
+                                 std::vector<std::string>* notes = nullptr,
+                                 const PhysGaussianDeckFiles* files = nullptr);
 
 }  // namespace gen4d::gaussians

@@ -58,16 +58,26 @@ std::string find_ffmpeg() {
 std::string assemble_mp4(const std::string& png_dir, double fps, const std::string& out_mp4) {
   if (!(fps > 0) || !std::isfinite(fps))
     throw InputError(out_mp4 + ": the video's frame rate must be positive");
-  std::vector<fs::path> pngs;
+  std::vector<std::string> pngs;
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(png_dir, ec))
-    if (e.is_regular_file() && e.path().extension() == ".png") pngs.push_back(e.path());
+    if (e.is_regular_file() && e.path().extension() == ".png") pngs.push_back(e.path().string());
   if (ec) throw InputError(png_dir + ": cannot list the PNG directory: " + ec.message());
   if (pngs.empty()) throw InputError(png_dir + ": no PNG files to assemble into a video");
   std::sort(pngs.begin(), pngs.end());
+  return assemble_mp4(pngs, fps, out_mp4);
+}
+
+std::string assemble_mp4(const std::vector<std::string>& pngs, double fps,
+                         const std::string& out_mp4) {
+  if (!(fps > 0) || !std::isfinite(fps))
+    throw InputError(out_mp4 + ": the video's frame rate must be positive");
+  if (pngs.empty()) throw InputError(out_mp4 + ": no PNG files to assemble into a video");
+  std::error_code ec;
   const std::string ffmpeg = find_ffmpeg();
   if (ffmpeg.empty()) {
-    log::info("ffmpeg is not on PATH: no video {} (the PNG files are in {})", out_mp4, png_dir);
+    log::info("ffmpeg is not on PATH: no video {} (the PNG files are in {})", out_mp4,
+              fs::path(pngs.front()).parent_path().string());
     return "";
   }
   const fs::path out(out_mp4);
@@ -78,7 +88,8 @@ std::string assemble_mp4(const std::string& png_dir, double fps, const std::stri
     std::ofstream f(list);
     for (const auto& p : pngs)
       f << "file " << quoted(fs::absolute(p).string()) << "\nduration " << 1.0 / fps << "\n";
-    // The concat demuxer drops the last duration unless the last file is listed again.
+    // The concat demuxer drops the last duration unless the last file is listed again (the
+    // repeat itself is cut by -frames:v).
     f << "file " << quoted(fs::absolute(pngs.back()).string()) << "\n";
     if (!f) throw RuntimeError(list.string() + ": cannot write the frame list for ffmpeg");
   }
@@ -88,8 +99,8 @@ std::string assemble_mp4(const std::string& png_dir, double fps, const std::stri
   const std::string cmd =
       quoted(ffmpeg) + " -hide_banner -loglevel error -y -f concat -safe 0 -i " +
       quoted(list.string()) + " -vf 'scale=trunc(iw/2)*2:trunc(ih/2)*2,format=yuv420p' -r " + rate +
-      " -c:v " + codec + (codec == "mpeg4" ? " -q:v 3" : " -crf 18") + " -f mp4 " +
-      quoted(temp.string());
+      " -frames:v " + std::to_string(pngs.size()) + " -c:v " + codec +
+      (codec == "mpeg4" ? " -q:v 3" : " -crf 18") + " -f mp4 " + quoted(temp.string());
   const int rc = std::system(cmd.c_str());
   fs::remove(list, ec);
   if (rc != 0) {

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace gen4d::gaussians {
 
@@ -14,5 +15,9 @@ std::string find_ffmpeg();
 //! note) when ffmpeg is not on PATH. InputError when png_dir holds no PNG or fps is not
 //! positive; RuntimeError when ffmpeg fails.
 std::string assemble_mp4(const std::string& png_dir, double fps, const std::string& out_mp4);
+
+//! The same for the PNG files `pngs`, in the order given (every one shown for 1 / fps s).
+std::string assemble_mp4(const std::vector<std::string>& pngs, double fps,
+                         const std::string& out_mp4);
 
 }  // namespace gen4d::gaussians

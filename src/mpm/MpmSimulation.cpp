@@ -74,29 +74,79 @@ GridSpec layout_grid(const Config& cfg, const geometry::Aabb& object) {
   return g;
 }
 
-std::shared_ptr<const Material> make_deck_material(const Config& cfg) {
+namespace {
+std::shared_ptr<const Material> build_material(const MaterialConfig& m, const std::string& source) {
   MaterialParams p;
-  p.model = cfg.material.model;
-  p.values = cfg.material.params;
-  p.where = cfg.material.param_where;
-  p.values["youngs_modulus"] = cfg.material.youngs_modulus;
-  p.values["poisson_ratio"] = cfg.material.poisson_ratio;
-  p.values["density"] = cfg.material.density;
-  p.source = cfg.source;
+  p.model = m.model;
+  p.values = m.params;
+  p.where = m.param_where;
+  p.values["youngs_modulus"] = m.youngs_modulus;
+  p.values["poisson_ratio"] = m.poisson_ratio;
+  p.values["density"] = m.density;
+  p.source = source;
   return make_material(p);
+}
+}  // namespace
+
+std::shared_ptr<const Material> make_deck_material(const Config& cfg) {
+  return build_material(cfg.material, cfg.source);
+}
+
+MaterialSet make_deck_materials(const Config& cfg) {
+  std::vector<std::shared_ptr<const Material>> slots{make_deck_material(cfg)};
+  for (const MaterialConfig& m : cfg.material_regions)
+    slots.push_back(build_material(m, cfg.source));
+  return MaterialSet(std::move(slots));
+}
+
+void assign_material_slots(const Config& cfg, const MaterialSet& materials,
+                           std::int64_t lattice_count, const std::vector<int>& splat_part,
+                           Particles& p) {
+  if (cfg.material_regions.empty()) return;
+  // The non-splat parts' shapes, only when an entry names a part.
+  const bool by_part = std::any_of(cfg.material_regions.begin(), cfg.material_regions.end(),
+                                   [](const MaterialConfig& m) { return !m.has_region; });
+  std::vector<std::pair<int, std::unique_ptr<geometry::Shape>>> solids;
+  if (by_part)
+    for (std::size_t g = 0; g < cfg.geometry.size(); ++g)
+      if (cfg.geometry[g].type != "splats")
+        solids.emplace_back(static_cast<int>(g), geometry::make_shape({cfg.geometry[g]}));
+  std::vector<std::array<double, kStateSize>> init(materials.size());
+  for (std::size_t s = 0; s < materials.size(); ++s) materials[s].init_state(init[s].data());
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const Vec3d x{p.x[3 * i], p.x[3 * i + 1], p.x[3 * i + 2]};
+    int part = -1;
+    if (p.id[i] >= lattice_count) {
+      part = splat_part.at(static_cast<std::size_t>(p.id[i] - lattice_count));
+    } else {
+      const Eigen::Vector3d xe(x[0], x[1], x[2]);
+      for (const auto& [g, shape] : solids)
+        if (shape->inside(xe)) {
+          part = g;
+          break;
+        }
+    }
+    const int slot = material_slot(cfg, part, x);
+    p.material[i] = static_cast<std::uint8_t>(slot);
+    if (slot == 0) continue;
+    p.mass[i] = materials[static_cast<std::size_t>(slot)].density() * p.vol0[i];
+    std::copy_n(init[static_cast<std::size_t>(slot)].data(), kStateSize, &p.state[kStateSize * i]);
+  }
 }
 
 MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm_(comm), cfg_(cfg) {
   MPI_Comm_rank(comm, &rank_);
   MPI_Comm_size(comm, &size_);
-  auto material = make_deck_material(cfg_);
+  const MaterialSet materials = make_deck_materials(cfg_);
   // Splat parts become one particle per Gaussian; the others are seeded on the lattice.
   std::vector<GeometryConfig> solid_parts;
   gaussians::SplatSet splats;
+  std::vector<int> splat_part;  // Config::geometry index of each splat
   bool any_splats = false;
   for (const GeometryConfig& g : cfg_.geometry) {
     if (g.type == "splats") {
       gaussians::append_splats(splats, gaussians::load_geometry_splats(g));
+      splat_part.resize(splats.size(), static_cast<int>(&g - cfg_.geometry.data()));
       any_splats = true;
     } else {
       solid_parts.push_back(g);
@@ -133,8 +183,10 @@ MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm
   opt.remove_outside = cfg_.mpm.out_of_domain == "remove";
   opt.boundary_layers = cfg_.mpm.boundary_layers;
   opt.max_cells_per_substep = cfg_.mpm.max_cells_per_substep;
-  solver_ = std::make_unique<Solver>(comm_, spec_, material, opt, cfg_.boundaries);
-  const double limit = spec_.dx / std::max(material->wave_speed(), 1e-300);
+  opt.rpic_damping = cfg_.mpm.rpic_damping;
+  opt.grid_velocity_scale = cfg_.mpm.grid_velocity_scale;
+  solver_ = std::make_unique<Solver>(comm_, spec_, materials, opt, cfg_.boundaries);
+  const double limit = spec_.dx / std::max(materials.wave_speed(), 1e-300);
   if (rank_ == 0 && !opt.adaptive && cfg_.dt > limit)
     log::warn(
         "mpm.substep = \"fixed\": simulation.dt = {:.3g} s is {:.1f}x the elastic stability "
@@ -143,14 +195,15 @@ MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm
   if (!seed) return;
   const int ppa = cfg_.mpm.particles_per_axis;
   Particles p;
-  if (shape) p = seed_particles(comm_, spec_, *shape, ppa, *material, cfg_.mpm.velocity);
+  if (shape) p = seed_particles(comm_, spec_, *shape, ppa, materials[0], cfg_.mpm.velocity);
   if (carries_splats_) add_lattice_splats(p, layout_, cfg_, solid_parts, spec_.dx / ppa);
   long long n = static_cast<long long>(p.size());
   MPI_Allreduce(MPI_IN_PLACE, &n, 1, MPI_LONG_LONG, MPI_SUM, comm_);
+  const long long lattice_count = n;
   if (splats.size() > 0) {
     // Ids after the lattice particles', in the deck's splat order.
-    p.append(seed_splats(comm_, spec_, splats, *material, cfg_.mpm.velocity, n, layout_.sh_degree,
-                         cfg_.source));
+    p.append(seed_splats(comm_, spec_, splats, materials[0], cfg_.mpm.velocity, n,
+                         layout_.sh_degree, cfg_.source));
     n += static_cast<long long>(splats.size());
   }
   if (n == 0)
@@ -158,6 +211,7 @@ MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm
                      ": the geometry holds no particle of the MPM grid (is the object inside "
                      "[mpm] lo/hi, and larger than domain.voxel_size / particles_per_axis?)");
   total_ = n;
+  assign_material_slots(cfg_, materials, lattice_count, splat_part, p);
   solver_->distribute(std::move(p));
   long long local = static_cast<long long>(solver_->particles().size()), most = 0, least = 0;
   MPI_Allreduce(&local, &most, 1, MPI_LONG_LONG, MPI_MAX, comm_);
@@ -168,7 +222,7 @@ MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm
   log::info("mpm: {} particles ({} per cell{}), grid {} x {} x {} cells of {:.4g} m, material {}",
             total_, ppa * ppa * ppa,
             (splats.size() == 0) ? std::string() : fmt::format("; {} from splats", splats.size()),
-            spec_.cells[0], spec_.cells[1], spec_.cells[2], spec_.dx, material->name());
+            spec_.cells[0], spec_.cells[1], spec_.cells[2], spec_.dx, materials.describe());
 }
 
 MpmSimulation::~MpmSimulation() = default;
@@ -211,7 +265,7 @@ std::string MpmSimulation::write_checkpoint(const std::string& out_dir, const Sn
   st.next_frame_time = from ? from->next_frame_time : next_frame_time_;
   st.deck_text = cfg_.text;
   st.total_particles = total_;
-  st.state_names = solver_->material().state_names();
+  st.state_names = solver_->materials().state_names();
   if (carries_splats_) st.extra_names = layout_.names();
   st.extras["removed"] = static_cast<double>(solver_->removed());
   st.extras["clamped"] = static_cast<double>(solver_->clamped());
@@ -228,8 +282,9 @@ void MpmSimulation::write_frame(ParticleFrameWriter& writer, const std::string& 
   const std::size_t n = p.size();
   // Output fields: J = det F, the material's state slots, von Mises of the Cauchy stress.
   std::vector<double> J(n), mises(n), tau(9 * n);
-  if (n) solver_->material().stress(n, p.F.data(), p.state.data(), tau.data());
-  const auto names = solver_->material().state_names();
+  const MaterialSet& materials = solver_->materials();
+  if (n) materials.stress(n, p.material.data(), p.F.data(), p.state.data(), tau.data());
+  const auto names = materials.state_names();
   std::vector<std::vector<double>> slots(names.size(), std::vector<double>(n));
   for (std::size_t i = 0; i < n; ++i) {
     const double* F = &p.F[9 * i];
@@ -248,6 +303,9 @@ void MpmSimulation::write_frame(ParticleFrameWriter& writer, const std::string& 
   }
   std::vector<ParticleScalar> fields{{"J", J.data()}, {"von_mises_stress", mises.data()}};
   for (std::size_t s = 0; s < names.size(); ++s) fields.push_back({names[s], slots[s].data()});
+  std::vector<double> slot(materials.size() > 1 ? n : 0);
+  for (std::size_t i = 0; i < slot.size(); ++i) slot[i] = p.material[i];
+  if (materials.size() > 1) fields.push_back({"material", slot.data()});
   writer.write_frame(time_, static_cast<int>(step_), p, fields);
   const int index = static_cast<int>(writer.frames().back().index);
   if (cfg_.output.particles == "ply")

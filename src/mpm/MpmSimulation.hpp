@@ -38,6 +38,15 @@ struct MpmRunResult {
 GridSpec layout_grid(const Config& cfg, const geometry::Aabb& object);
 //! The deck's material for the MPM registry (InputError naming the deck key when invalid).
 std::shared_ptr<const Material> make_deck_material(const Config& cfg);
+//! Every material of the deck: slot 0 the first, slot k its k-th later [[material]] entry.
+MaterialSet make_deck_materials(const Config& cfg);
+//! Sets the material slot of freshly seeded particles (material_slot of the deck): lattice
+//! particles (ids below `lattice_count`) belong to the first of the deck's non-splat parts that
+//! holds them, the others to `splat_part[id - lattice_count]` (a Config::geometry index). Mass
+//! (density times rest volume) and state are made again for slots other than 0.
+void assign_material_slots(const Config& cfg, const MaterialSet& materials,
+                           std::int64_t lattice_count, const std::vector<int>& splat_part,
+                           Particles& p);
 
 class MpmSimulation {
  public:

@@ -180,10 +180,11 @@ struct Column {
   const char* name;
   int offset;
   int width;
-  bool byte;  //!< stored as uint8
+  bool byte;       //!< stored as uint8
+  long since = 1;  //!< format_version that added it; older files read it as 0
 };
 
-constexpr int kCheckpointRow = 1 + 3 + 3 + 9 + 9 + kStateSize + 3;
+constexpr int kCheckpointRow = 1 + 3 + 3 + 9 + 9 + kStateSize + 4;
 const Column kCheckpointColumns[] = {{"position", 1, 3, false},
                                      {"velocity", 4, 3, false},
                                      {"C", 7, 9, false},
@@ -191,7 +192,8 @@ const Column kCheckpointColumns[] = {{"position", 1, 3, false},
                                      {"state", 25, kStateSize, false},
                                      {"mass", 25 + kStateSize, 1, false},
                                      {"volume0", 26 + kStateSize, 1, false},
-                                     {"flag", 27 + kStateSize, 1, true}};
+                                     {"flag", 27 + kStateSize, 1, true},
+                                     {"material", 28 + kStateSize, 1, true, 2}};
 
 //! The extra values of a row follow the kCheckpointRow fixed ones.
 std::vector<double> checkpoint_rows(const Particles& p) {
@@ -208,6 +210,7 @@ std::vector<double> checkpoint_rows(const Particles& p) {
     r[25 + kStateSize] = p.mass[i];
     r[26 + kStateSize] = p.vol0[i];
     r[27 + kStateSize] = p.flag[i];
+    r[28 + kStateSize] = p.material[i];
     std::copy_n(p.extra.data() + i * p.extra_width, p.extra_width, r + kCheckpointRow);
   }
   return rows;
@@ -268,9 +271,9 @@ std::int64_t check_checkpoint_layout(hid_t file, const std::string& path) {
                      kParticleCheckpointFormat + "')");
   }
   const long version = h5::read_long_attr(file, "format_version", path);
-  if (version != kParticleCheckpointFormatVersion) {
+  if (version < 1 || version > kParticleCheckpointFormatVersion) {
     throw InputError(path + ": MPM checkpoint format_version " + std::to_string(version) +
-                     " is not supported (expected " +
+                     " is not supported (expected 1 to " +
                      std::to_string(kParticleCheckpointFormatVersion) + ")");
   }
   const long total = h5::read_long_attr(file, "particle_count", path);
@@ -279,6 +282,7 @@ std::int64_t check_checkpoint_layout(hid_t file, const std::string& path) {
   }
   const auto rows = static_cast<hsize_t>(total);
   for (const Column& c : kCheckpointColumns) {
+    if (c.since > version) continue;
     h5::open_rows_dataset(file, std::string("/") + c.name, c.byte ? H5T_INTEGER : H5T_FLOAT, rows,
                           c.width, path);
   }
@@ -379,7 +383,9 @@ Particles read_block(hid_t file, const std::string& path, std::int64_t total, co
   std::vector<double> dense(count * kCheckpointRow, 0.0);
   // Reported after the last read: every rank must join every collective read.
   std::string bad_value;
+  const long version = h5::read_long_attr(file, "format_version", path);
   for (const Column& c : kCheckpointColumns) {
+    if (c.since > version) continue;  // an older file: the column stays 0
     const std::string name = std::string("/") + c.name;
     h5::Handle dataset =
         h5::open_rows_dataset(file, name, c.byte ? H5T_INTEGER : H5T_FLOAT, rows, c.width, path);
@@ -436,6 +442,7 @@ Particles read_block(hid_t file, const std::string& path, std::int64_t total, co
     p.mass.push_back(r[25 + kStateSize]);
     p.vol0.push_back(r[26 + kStateSize]);
     p.flag.push_back(static_cast<std::uint8_t>(r[27 + kStateSize]));
+    p.material.push_back(static_cast<std::uint8_t>(r[28 + kStateSize]));
     p.extra.insert(p.extra.end(), extra_values.begin() + static_cast<long>(i * extra),
                    extra_values.begin() + static_cast<long>((i + 1) * extra));
   }

@@ -24,7 +24,8 @@
 namespace gen4d::mpm {
 
 inline constexpr const char* kParticleCheckpointFormat = "gen4d-mpm-checkpoint";
-inline constexpr long kParticleCheckpointFormatVersion = 1;
+//! 2 added the per-particle material slot; version 1 files are read with every slot 0.
+inline constexpr long kParticleCheckpointFormatVersion = 2;
 inline constexpr const char* kParticleFramesFormat = "gen4d-mpm-frames";
 inline constexpr long kParticleFramesFormatVersion = 1;
 

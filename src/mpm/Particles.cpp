@@ -20,6 +20,7 @@ void Particles::clear() {
   mass.clear();
   vol0.clear();
   flag.clear();
+  material.clear();
   extra.clear();
 }
 
@@ -33,6 +34,7 @@ void Particles::reserve(std::size_t n) {
   mass.reserve(n);
   vol0.reserve(n);
   flag.reserve(n);
+  material.reserve(n);
   extra.reserve(static_cast<std::size_t>(extra_width) * n);
 }
 
@@ -48,6 +50,7 @@ void Particles::push_back(std::int64_t gid, const double* pos, const double* vel
   mass.push_back(m);
   vol0.push_back(v0);
   flag.push_back(0);
+  material.push_back(0);
   if (extra_values)
     extra.insert(extra.end(), extra_values, extra_values + extra_width);
   else
@@ -67,6 +70,7 @@ void Particles::append(const Particles& o) {
   mass.insert(mass.end(), o.mass.begin(), o.mass.end());
   vol0.insert(vol0.end(), o.vol0.begin(), o.vol0.end());
   flag.insert(flag.end(), o.flag.begin(), o.flag.end());
+  material.insert(material.end(), o.material.begin(), o.material.end());
   extra.insert(extra.end(), o.extra.begin(), o.extra.end());
 }
 
@@ -80,6 +84,7 @@ void Particles::pack(std::size_t i, double* r) const {
   r[25 + kStateSize] = mass[i];
   r[26 + kStateSize] = vol0[i];
   r[27 + kStateSize] = flag[i];
+  r[28 + kStateSize] = material[i];
 }
 
 std::string Particles::inconsistency() const {
@@ -87,7 +92,7 @@ std::string Particles::inconsistency() const {
   if (extra_width < 0) return fmt::format("negative extra width {}", extra_width);
   if (x.size() != 3 * n || v.size() != 3 * n || C.size() != 9 * n || F.size() != 9 * n ||
       state.size() != kStateSize * n || mass.size() != n || vol0.size() != n || flag.size() != n ||
-      extra.size() != static_cast<std::size_t>(extra_width) * n)
+      material.size() != n || extra.size() != static_cast<std::size_t>(extra_width) * n)
     return "the particle arrays disagree in length";
   return "";
 }
@@ -125,6 +130,7 @@ void Particles::compact(const std::vector<std::uint8_t>& keep) {
   keep_rows(mass, 1, keep);
   keep_rows(vol0, 1, keep);
   keep_rows(flag, 1, keep);
+  keep_rows(material, 1, keep);
   keep_rows(extra, extra_width, keep);
 }
 
@@ -142,6 +148,7 @@ void Particles::sort_by_id() {
   permute_rows(mass, 1, order);
   permute_rows(vol0, 1, order);
   permute_rows(flag, 1, order);
+  permute_rows(material, 1, order);
   permute_rows(extra, extra_width, order);
 }
 
@@ -154,7 +161,7 @@ std::size_t redistribute(MPI_Comm comm, Particles& p,
   for (std::size_t i = 0; i < dest.size(); ++i) dest[i] = owner(i);
   parallel::RowExchange ex;
   ex.add(p.id, 1).add(p.x, 3).add(p.v, 3).add(p.C, 9).add(p.F, 9).add(p.state, kStateSize);
-  ex.add(p.mass, 1).add(p.vol0, 1).add(p.flag, 1).add(p.extra, p.extra_width);
+  ex.add(p.mass, 1).add(p.vol0, 1).add(p.flag, 1).add(p.material, 1).add(p.extra, p.extra_width);
   return ex.exchange(comm, dest);
 }
 

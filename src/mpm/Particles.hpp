@@ -15,15 +15,16 @@
 namespace gen4d::mpm {
 
 struct Particles {
-  std::vector<std::int64_t> id;    //!< global id, dense 0..N-1 at seeding
-  std::vector<double> x;           //!< 3 per particle, m
-  std::vector<double> v;           //!< 3 per particle, m/s
-  std::vector<double> C;           //!< 9 per particle (APIC affine velocity), 1/s, row-major
-  std::vector<double> F;           //!< 9 per particle, elastic deformation gradient, row-major
-  std::vector<double> state;       //!< kStateSize per particle (plastic / history scalars)
-  std::vector<double> mass;        //!< kg
-  std::vector<double> vol0;        //!< rest volume, m^3
-  std::vector<std::uint8_t> flag;  //!< bit 0: frozen (not yet released); bit 1: kinematic
+  std::vector<std::int64_t> id;        //!< global id, dense 0..N-1 at seeding
+  std::vector<double> x;               //!< 3 per particle, m
+  std::vector<double> v;               //!< 3 per particle, m/s
+  std::vector<double> C;               //!< 9 per particle (APIC affine velocity), 1/s, row-major
+  std::vector<double> F;               //!< 9 per particle, elastic deformation gradient, row-major
+  std::vector<double> state;           //!< kStateSize per particle (plastic / history scalars)
+  std::vector<double> mass;            //!< kg
+  std::vector<double> vol0;            //!< rest volume, m^3
+  std::vector<std::uint8_t> flag;      //!< bit 0: frozen (not yet released); bit 1: kinematic
+  std::vector<std::uint8_t> material;  //!< slot of the run's MaterialSet (0 with one material)
   //! extra_width doubles per particle carried with it through migration, checkpoints and
   //! restart, whose meaning the run defines (the splat attributes of mpm/SplatParticles.hpp);
   //! empty when extra_width is 0.
@@ -32,7 +33,7 @@ struct Particles {
 
   //! Doubles per particle in a packed record of the solver's attributes (id stored as a
   //! double, exact below 2^53; `extra` is not part of it).
-  static constexpr int kRecord = 1 + 3 + 3 + 9 + 9 + kStateSize + 2 + 1;
+  static constexpr int kRecord = 1 + 3 + 3 + 9 + 9 + kStateSize + 2 + 2;
 
   std::size_t size() const { return id.size(); }
   void clear();

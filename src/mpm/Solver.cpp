@@ -57,13 +57,29 @@ inline double dot3(const double* a, const double* b) {
   return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
 
+//! The affine matrix P2G transfers: C blended towards its skew part by r (RPIC damping), or
+//! zero for r < 0 (PIC).
+inline void transfer_affine(const double* C, double r, double* out) {
+  if (r == 0) {
+    std::copy_n(C, 9, out);
+    return;
+  }
+  if (r < 0) {
+    std::fill_n(out, 9, 0.0);
+    return;
+  }
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b)
+      out[3 * a + b] = (1 - r) * C[3 * a + b] + 0.5 * r * (C[3 * a + b] - C[3 * b + a]);
+}
+
 }  // namespace
 
-Solver::Solver(MPI_Comm comm, const GridSpec& grid, std::shared_ptr<const Material> material,
+Solver::Solver(MPI_Comm comm, const GridSpec& grid, MaterialSet materials,
                const SolverOptions& options, std::vector<BoundaryConfig> boundaries)
     : comm_(comm),
       spec_(grid),
-      material_(std::move(material)),
+      materials_(std::move(materials)),
       opt_(options),
       bcs_(std::move(boundaries)) {
   MPI_Comm_rank(comm_, &rank_);
@@ -175,7 +191,7 @@ double Solver::stable_dt(double limit) const {
   MPI_Allreduce(MPI_IN_PLACE, &vmax, 1, MPI_DOUBLE, MPI_MAX, comm_);
   vmax = std::sqrt(vmax);
   if (vmax > 0) dt = std::min(dt, opt_.cfl * spec_.dx / vmax);
-  const double c = material_->wave_speed();
+  const double c = materials_.wave_speed();
   if (c > 0) dt = std::min(dt, opt_.wave_cfl * spec_.dx / c);
   return dt;
 }
@@ -214,7 +230,8 @@ void Solver::substep(double t, double dt) {
 
 void Solver::update_stress(double dt) {
   tau_.resize(9 * p_.size());
-  if (p_.size() > 0) material_->update(p_.size(), p_.F.data(), p_.state.data(), tau_.data(), dt);
+  if (p_.size() > 0)
+    materials_.update(p_.size(), p_.material.data(), p_.F.data(), p_.state.data(), tau_.data(), dt);
   if (opt_.stress_hook && p_.size() > 0) opt_.stress_hook(p_, tau_.data(), dt);
 }
 
@@ -223,15 +240,16 @@ void Solver::p2g(double dt) {
   const double dx = spec_.dx, inv_dx = 1.0 / dx;
   const double stress_scale = -dt * 4.0 * inv_dx * inv_dx;
   // Quanta from the global largest contributions.
+  const double rpic = opt_.rpic_damping;
   double bound[2] = {0, 0};
   for (std::size_t i = 0; i < n; ++i) {
     const double m = p_.mass[i];
     bound[0] = std::max(bound[0], m);
-    double mv = 0, a = 0;
+    double mv = 0, a = 0, C[9];
+    transfer_affine(&p_.C[9 * i], rpic, C);
     for (int d = 0; d < 3; ++d) mv = std::max(mv, std::abs(p_.v[3 * i + d]));
     for (int k = 0; k < 9; ++k)
-      a = std::max(
-          a, std::abs(stress_scale * p_.vol0[i] * tau_[9 * i + k]) + std::abs(m * p_.C[9 * i + k]));
+      a = std::max(a, std::abs(stress_scale * p_.vol0[i] * tau_[9 * i + k]) + std::abs(m * C[k]));
     bound[1] = std::max(bound[1], m * mv + 3 * a * 1.5 * dx);
   }
   MPI_Allreduce(MPI_IN_PLACE, bound, 2, MPI_DOUBLE, MPI_MAX, comm_);
@@ -251,8 +269,9 @@ void Solver::p2g(double dt) {
     const auto& w = st.w;
     const double m = p_.mass[i];
     const double s = stress_scale * p_.vol0[i];
-    double A[9], mv[3];
-    for (int k = 0; k < 9; ++k) A[k] = s * tau_[9 * i + k] + m * p_.C[9 * i + k];
+    double A[9], mv[3], C[9];
+    transfer_affine(&p_.C[9 * i], rpic, C);
+    for (int k = 0; k < 9; ++k) A[k] = s * tau_[9 * i + k] + m * C[k];
     for (int d = 0; d < 3; ++d) mv[d] = m * p_.v[3 * i + d];
     for (int c = 0; c < 3; ++c) {
       const double dz = (c - fx[2]) * dx;
@@ -292,6 +311,15 @@ void Solver::grid_update(double t, double dt) {
   if (!has_box_entry) walls = true;
   const double* g = opt_.gravity.data();
   const double damp = opt_.damping > 0 ? 1.0 / (1.0 + opt_.damping * dt) : 1.0;
+  const double scale_v = opt_.grid_velocity_scale;
+  // Cuboid boxes at time t, and whether each one's reset window holds t.
+  std::vector<BoxRegion> boxes(bcs_.size());
+  std::vector<char> resetting(bcs_.size(), 0);
+  for (std::size_t b = 0; b < bcs_.size(); ++b) {
+    if (bcs_[b].type != "cuboid") continue;
+    boxes[b] = cuboid_region(bcs_[b], t);
+    resetting[b] = t >= bcs_[b].end && t < bcs_[b].end + bcs_[b].reset_duration;
+  }
   for (long k = 0; k < gb.count[2]; ++k)
     for (long j = 0; j < gb.count[1]; ++j)
       for (long i = 0; i < gb.count[0]; ++i) {
@@ -304,15 +332,22 @@ void Solver::grid_update(double t, double dt) {
         }
         const double inv_m = quantum_mom_ / m;
         for (int d = 0; d < 3; ++d) v[d] = mom_[3 * n + d] * inv_m + dt * g[d];
+        if (scale_v != 1)
+          for (int d = 0; d < 3; ++d) v[d] *= scale_v;
         if (damp != 1)
           for (int d = 0; d < 3; ++d) v[d] *= damp;
         const long idx[3] = {gb.start[0] + i, gb.start[1] + j, gb.start[2] + k};
         const double xi[3] = {spec_.lo[0] + idx[0] * spec_.dx, spec_.lo[1] + idx[1] * spec_.dx,
                               spec_.lo[2] + idx[2] * spec_.dx};
-        for (const auto& bc : bcs_) {
+        for (std::size_t b = 0; b < bcs_.size(); ++b) {
+          const BoundaryConfig& bc = bcs_[b];
+          if (resetting[b]) {
+            v[0] = v[1] = v[2] = 0;
+            continue;
+          }
           if (!active(bc, t)) continue;
           if (bc.type == "cuboid") {
-            if (bc.region.contains({xi[0], xi[1], xi[2]}))
+            if (boxes[b].contains({xi[0], xi[1], xi[2]}))
               for (int d = 0; d < 3; ++d) v[d] = bc.velocity[d];
           } else if (bc.type == "surface_collider") {
             const double* nrm = bc.normal.data();
@@ -326,6 +361,15 @@ void Solver::grid_update(double t, double dt) {
               continue;
             }
             const double vn = dot3(v, nrm);
+            if (bc.surface == "cut") {
+              // Inside the cut: no normal velocity, cut_scale of the rest; elsewhere: stop.
+              const bool in_cut = bc.region.contains({xi[0], xi[1], xi[2]});
+              for (int d = 0; d < 3; ++d) {
+                const double target = in_cut ? bc.cut_scale * (v[d] - vn * nrm[d]) : 0.0;
+                v[d] = wb == 1.0 ? target : v[d] + wb * (target - v[d]);
+              }
+              continue;
+            }
             if (bc.surface == "separate" && vn >= 0) continue;
             double vt[3];
             for (int d = 0; d < 3; ++d) vt[d] = v[d] - vn * nrm[d];

@@ -16,6 +16,7 @@
 
 #include <mpi.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -27,6 +28,7 @@
 #include "core/Error.hpp"
 #include "core/Timers.hpp"
 #include "mpm/Material.hpp"
+#include "mpm/MaterialSet.hpp"
 #include "mpm/Particles.hpp"
 #include "parallel/Grid.hpp"
 #include "parallel/Halo.hpp"
@@ -53,6 +55,11 @@ struct SolverOptions {
   //! Mass-proportional damping alpha (1/s): the grid velocity after gravity is divided by
   //! 1 + alpha dt (implicit, stable at any alpha); 0 leaves the update untouched.
   double damping = 0;
+  //! P2G's affine matrix C -> (1 - r) C + r skew(C) (PhysGaussian's RPIC damping: r = 1 keeps
+  //! only C's rotation part); 0: APIC; -1: PIC (C = 0). The particles keep their C.
+  double rpic_damping = 0;
+  //! Grid velocities (after gravity) are multiplied by this every substep; 1: off.
+  double grid_velocity_scale = 1;
   //! Called every substep after the material's update with this rank's particles and their
   //! Kirchhoff stresses (9 per particle, row-major), which it may change before P2G; empty: no
   //! call. Diagnose's MPM model adds its effects' stresses here (a region's stiffness factor,
@@ -74,6 +81,19 @@ inline BoundaryConfig surface_collider(const std::string& surface, const Vec3d& 
   return b;
 }
 
+//! The box of a `cuboid` condition at time t: its lo/hi, shifted by
+//! velocity (clamp(t, start, end) - start) when it is "moving".
+inline BoxRegion cuboid_region(const BoundaryConfig& b, double t) {
+  if (b.motion != "moving") return b.region;
+  const double tau = std::clamp(t, b.start, b.end) - b.start;
+  BoxRegion r = b.region;
+  for (int d = 0; d < 3; ++d) {
+    r.lo[d] += b.velocity[d] * tau;
+    r.hi[d] += b.velocity[d] * tau;
+  }
+  return r;
+}
+
 //! A particle that went non-finite or moved too far in one substep: the run is unstable.
 class InstabilityError : public RuntimeError {
  public:
@@ -82,8 +102,9 @@ class InstabilityError : public RuntimeError {
 
 class Solver {
  public:
-  Solver(MPI_Comm comm, const GridSpec& grid, std::shared_ptr<const Material> material,
-         const SolverOptions& options, std::vector<BoundaryConfig> boundaries);
+  //! `materials`: one material, or a MaterialSet whose slots the particles' `material` name.
+  Solver(MPI_Comm comm, const GridSpec& grid, MaterialSet materials, const SolverOptions& options,
+         std::vector<BoundaryConfig> boundaries);
   ~Solver();
 
   //! Takes this rank's particles (any subset), builds the balanced grid from the global
@@ -97,8 +118,10 @@ class Solver {
   Particles& particles() { return p_; }
   const Particles& particles() const { return p_; }
   const GridSpec& spec() const { return spec_; }
+  const SolverOptions& options() const { return opt_; }
   const parallel::NodeGrid& grid() const { return *grid_; }
-  const Material& material() const { return *material_; }
+  const MaterialSet& materials() const { return materials_; }
+  const Material& material() const { return materials_[0]; }  //!< slot 0
   PhaseTimers& timers() { return timers_; }
   const PhaseTimers& timers() const { return timers_; }
 
@@ -132,7 +155,7 @@ class Solver {
   MPI_Comm comm_;
   int rank_ = 0, size_ = 1;
   GridSpec spec_;
-  std::shared_ptr<const Material> material_;
+  MaterialSet materials_;
   SolverOptions opt_;
   std::vector<BoundaryConfig> bcs_;
   Particles p_;
