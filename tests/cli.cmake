@@ -3,7 +3,8 @@
 # at 1, 2 and 4 ranks with identical images, and PhysGaussian configs (convert, a short run,
 # bad input).
 if(TARGET gen4d)
-  foreach(script cli_errors cli_sigterm_restart cli_splats cli_physgaussian)
+  foreach(script cli_errors cli_sigterm_restart cli_splats cli_physgaussian
+                 cli_physgaussian_configs)
     add_test(NAME ${script}
              COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/${script}.sh $<TARGET_FILE:gen4d>
                      ${MPIEXEC_EXECUTABLE} ${CMAKE_CURRENT_BINARY_DIR}/scratch/${script})

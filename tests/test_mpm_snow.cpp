@@ -140,6 +140,31 @@ TEST(MpmSnow, RegisteredWithItsKeysAndDefaults) {
               1e-12 * m->wave_speed());
   EXPECT_NEAR(snow({{"hardening_coefficient", 0}})->wave_speed(),
               std::sqrt((kLambda + 2 * kMu) / kRho), 1e-12 * m->wave_speed());
+  // The adaptive substep's bound: the hardening of the most compacted particle at hand, compacted
+  // by one more full clamp; at rest about 100 times below the state-free bound.
+  auto bound = [&](double jp) {
+    const double h = std::exp(kXi * (1 - jp * std::pow(1 - kThetaC, 3)));
+    return std::sqrt(h * (kLambda + 2 * kMu) / kRho);
+  };
+  State three[3];
+  for (State& p : three) m->init_state(p.s);
+  std::vector<double> states;
+  for (const State& p : three) states.insert(states.end(), p.s, p.s + mpm::kStateSize);
+  EXPECT_NEAR(m->state_wave_speed(3, states.data()), bound(1.0), 1e-12 * bound(1.0));
+  EXPECT_GT(m->wave_speed() / m->state_wave_speed(3, states.data()), 90);
+  states[mpm::kStateSize] = 0.7;  // the second particle compacted
+  states[2 * mpm::kStateSize] = 1.3;
+  EXPECT_NEAR(m->state_wave_speed(3, states.data()), bound(0.7), 1e-12 * bound(0.7));
+  states[0] = 0.0;  // fully compacted: the state-free bound
+  EXPECT_NEAR(m->state_wave_speed(3, states.data()), m->wave_speed(), 1e-12 * m->wave_speed());
+  // Models without state-dependent stiffness keep their one bound.
+  const auto jelly = [] {
+    mpm::MaterialParams p;
+    p.model = "fixed_corotated";
+    p.values = {{"youngs_modulus", kE}, {"poisson_ratio", kNu}, {"density", kRho}};
+    return mpm::make_material(p);
+  }();
+  EXPECT_EQ(jelly->state_wave_speed(3, states.data()), jelly->wave_speed());
 }
 
 TEST(MpmSnow, BadKeysAreLocatedInputErrors) {

@@ -19,6 +19,7 @@
 #include "gaussians/Render.hpp"
 #include "gaussians/SphericalHarmonics.hpp"
 #include "gaussians/Video.hpp"
+#include "../drivers/SyntheticSplats.hpp"
 #include "png_test_util.hpp"
 
 namespace gen4d::gaussians {
@@ -77,22 +78,8 @@ std::array<float, 6> isotropic(float sigma) {
 
 //! A random SPD covariance R diag(s^2) R^T with scales in [lo, hi].
 std::array<float, 6> random_cov(std::mt19937& rng, double lo, double hi) {
-  std::uniform_real_distribution<double> u(-1, 1), s(lo, hi);
-  double q[4] = {u(rng), u(rng), u(rng), u(rng)};
-  const double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-  for (double& x : q) x /= n;
-  const double w = q[0], x = q[1], y = q[2], z = q[3];
-  const double R[9] = {1 - 2 * (y * y + z * z), 2 * (x * y - w * z),     2 * (x * z + w * y),
-                       2 * (x * y + w * z),     1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-                       2 * (x * z - w * y),     2 * (y * z + w * x),     1 - 2 * (x * x + y * y)};
-  const double sc[3] = {s(rng), s(rng), s(rng)};
-  double C[9];
-  for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b) {
-      C[3 * a + b] = 0;
-      for (int k = 0; k < 3; ++k) C[3 * a + b] += R[3 * a + k] * sc[k] * sc[k] * R[3 * b + k];
-    }
-  return {float(C[0]), float(C[1]), float(C[2]), float(C[4]), float(C[5]), float(C[8])};
+  const std::array<double, 6> c = synthetic::random_covariance(rng, lo, hi);
+  return {float(c[0]), float(c[1]), float(c[2]), float(c[3]), float(c[4]), float(c[5])};
 }
 
 //! `n` random splats of SH degree `degree` in the box [-1,1]^2 x [zlo, zhi].

@@ -17,6 +17,7 @@
 #include <string>
 #include <thread>
 
+#include "SyntheticSplats.hpp"
 #include "gaussians/Kinematics.hpp"
 #include "gaussians/Ply.hpp"
 #include "gaussians/Render.hpp"
@@ -69,22 +70,8 @@ SplatFrame synthetic(long n, int rank, int ranks) {
       for (double& x : p) x = u(rng);
     } while (p[0] * p[0] + p[1] * p[1] + p[2] * p[2] > 1);
     for (double x : p) s.position.push_back(static_cast<float>(x));
-    // R diag(s^2) R^T from a random unit quaternion.
-    double q[4] = {u(rng), u(rng), u(rng), u(rng)};
-    const double qn = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-    for (double& x : q) x /= qn;
-    const double w = q[0], x = q[1], y = q[2], z = q[3];
-    const double R[9] = {1 - 2 * (y * y + z * z), 2 * (x * y - w * z),     2 * (x * z + w * y),
-                         2 * (x * y + w * z),     1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-                         2 * (x * z - w * y),     2 * (y * z + w * x),     1 - 2 * (x * x + y * y)};
-    double sc[3];
-    for (double& v : sc) v = scale * (0.3 + 0.7 * (u(rng) + 1) / 2);
-    const int idx[6][2] = {{0, 0}, {0, 1}, {0, 2}, {1, 1}, {1, 2}, {2, 2}};
-    for (const auto& ab : idx) {
-      double v = 0;
-      for (int k = 0; k < 3; ++k) v += R[3 * ab[0] + k] * sc[k] * sc[k] * R[3 * ab[1] + k];
+    for (double v : synthetic::random_covariance(rng, 0.3 * scale, scale))
       s.covariance.push_back(static_cast<float>(v));
-    }
     s.opacity.push_back(static_cast<float>(o(rng)));
     for (int j = 0; j < 48; ++j) s.sh.push_back(static_cast<float>(c(rng) * (j < 3 ? 1.0 : 0.3)));
   }

@@ -55,6 +55,14 @@ class Material {
   //! Upper bound of the elastic P-wave speed sqrt((lambda + 2 mu) / rho), m/s, for the
   //! substep limit.
   virtual double wave_speed() const = 0;
+  //! Bound of the P-wave speed of n particles in their current state (kStateSize each) through
+  //! the next substep; a model whose stiffness depends on its state (snow's hardening) gives
+  //! the bound of the state at hand, others the state-free wave_speed().
+  virtual double state_wave_speed(std::size_t n, const double* state) const {
+    (void)n;
+    (void)state;
+    return wave_speed();
+  }
   double density() const { return density_; }
   double youngs_modulus() const { return E_; }
   double poisson_ratio() const { return nu_; }

@@ -68,6 +68,15 @@ void MaterialSet::update(std::size_t n, const std::uint8_t* slot, double* F, dou
   });
 }
 
+double MaterialSet::state_wave_speed(std::size_t n, const std::uint8_t* slot,
+                                     const double* state) const {
+  double c = 0;
+  for_runs(n, slot, [&](const Material& m, std::size_t i, std::size_t count) {
+    c = std::max(c, m.state_wave_speed(count, state + kStateSize * i));
+  });
+  return c;
+}
+
 void MaterialSet::stress(std::size_t n, const std::uint8_t* slot, const double* F,
                          const double* state, double* tau) const {
   for_runs(n, slot, [&](const Material& m, std::size_t i, std::size_t count) {

@@ -21,8 +21,10 @@ class MaterialSet {
 
   std::size_t size() const { return slots_.size(); }
   const Material& operator[](std::size_t slot) const { return *slots_.at(slot); }
-  //! Largest elastic wave speed of all slots (the substep bound).
+  //! Largest elastic wave speed of all slots, whatever their state.
   double wave_speed() const;
+  //! Largest Material::state_wave_speed of n particles by slot (the adaptive substep's bound).
+  double state_wave_speed(std::size_t n, const std::uint8_t* slot, const double* state) const;
   //! The per-particle state names: the slot's own where every slot agrees, else the slots'
   //! names joined by "|" ("" for an unused slot), so a frame's fields name every meaning.
   std::vector<std::string> state_names() const;

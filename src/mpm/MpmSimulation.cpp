@@ -393,8 +393,13 @@ MpmRunResult MpmSimulation::run(const std::string& out_dir, bool append) {
   const double t_start = time_;
   long substeps = 0;
   while (time_ < end * (1 - 1e-12)) {
-    const double target = std::min(next_frame_time_, end);
+    // A frame time within a billionth of a frame past the end is the last frame (0.02 x 30 is
+    // 0.6000000000000001).
+    const double target = next_frame_time_ <= end + 1e-9 * interval ? next_frame_time_ : end;
     double dt = solver_->stable_dt(target - time_);
+    // A substep that would leave less than a millionth of itself before the target reaches it:
+    // the rounding of t + dt would otherwise cost an extra, vanishing substep per frame.
+    if (dt < target - time_ && target - time_ - dt <= 1e-6 * dt) dt = target - time_;
     const bool reaches = dt >= (target - time_) * (1 - 1e-12);
     try {
       solver_->substep(time_, dt);

@@ -183,15 +183,15 @@ bool Solver::frozen(std::size_t i, double t) const {
 double Solver::stable_dt(double limit) const {
   double dt = std::min(limit, opt_.max_dt);
   if (!opt_.adaptive) return dt;
-  double vmax = 0;
+  // The fastest particle and the fastest elastic wave of the particles' current state.
+  double most[2] = {0, materials_.state_wave_speed(p_.size(), p_.material.data(), p_.state.data())};
   for (std::size_t i = 0; i < p_.size(); ++i) {
     const double* v = &p_.v[3 * i];
-    vmax = std::max(vmax, v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    most[0] = std::max(most[0], v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
   }
-  MPI_Allreduce(MPI_IN_PLACE, &vmax, 1, MPI_DOUBLE, MPI_MAX, comm_);
-  vmax = std::sqrt(vmax);
+  MPI_Allreduce(MPI_IN_PLACE, most, 2, MPI_DOUBLE, MPI_MAX, comm_);
+  const double vmax = std::sqrt(most[0]), c = most[1];
   if (vmax > 0) dt = std::min(dt, opt_.cfl * spec_.dx / vmax);
-  const double c = materials_.wave_speed();
   if (c > 0) dt = std::min(dt, opt_.wave_cfl * spec_.dx / c);
   return dt;
 }

@@ -11,8 +11,10 @@
 // positive.
 // Stress (the seed's fixed corotated with hardened moduli), h = exp(xi (1 - J_P)):
 //   tau = U diag(2 mu h (sigma_i - 1) sigma_i + lambda h (J_E - 1) J_E) U^T.
-// Compaction (J_P < 1) stiffens, h <= exp(xi); stretching (J_P > 1) softens. The substep limit
-// uses the largest hardening J_P -> 0 can reach: wave speed sqrt(exp(xi) (lambda + 2 mu) / rho).
+// Compaction (J_P < 1) stiffens, h <= exp(xi); stretching (J_P > 1) softens. The adaptive
+// substep uses the hardening of the particles at hand (state_wave_speed: the smallest J_P, times
+// one more full clamp (1 - theta_c)^3); the state-free bound wave_speed() is the largest one,
+// J_P -> 0: sqrt(exp(xi) (lambda + 2 mu) / rho).
 #include <algorithm>
 #include <cmath>
 #include <memory>
@@ -105,6 +107,14 @@ class Snow final : public ElasticBase {
   }
   double wave_speed() const override {
     return std::sqrt(std::exp(c_.xi) * (lambda_ + 2 * mu_) / density_);
+  }
+  //! The hardening of the most compacted particle, compacted once more by a full clamp in each
+  //! direction ((1 - theta_c)^3), which the next substep's return map could add.
+  double state_wave_speed(std::size_t n, const double* state) const override {
+    double jp = 1.0;
+    for (std::size_t i = 0; i < n; ++i) jp = std::min(jp, state[kStateSize * i]);
+    const double h = c_.hardening(std::max(0.0, jp * c_.lo * c_.lo * c_.lo));
+    return std::sqrt(h * (lambda_ + 2 * mu_) / density_);
   }
 
  private:
