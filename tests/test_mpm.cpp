@@ -12,6 +12,7 @@
 #include "mpm/Seeding.hpp"
 #include "mpm/Solver.hpp"
 #include "parallel/Reduce.hpp"
+#include "mpm_test_util.hpp"
 
 namespace gen4d {
 namespace {
@@ -76,33 +77,7 @@ void run(mpm::Solver& s, int substeps, double& t) {
   }
 }
 
-//! Every particle's record (id-sorted) on rank 0 of `comm`.
-std::vector<double> gather_sorted(MPI_Comm comm, const mpm::Particles& p) {
-  int rank = 0, size = 1;
-  MPI_Comm_rank(comm, &rank);
-  MPI_Comm_size(comm, &size);
-  std::vector<double> local(p.size() * mpm::Particles::kRecord);
-  for (std::size_t i = 0; i < p.size(); ++i) p.pack(i, &local[i * mpm::Particles::kRecord]);
-  const int n = static_cast<int>(local.size());
-  std::vector<int> counts(size), displs(size);
-  MPI_Gather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm);
-  int total = 0;
-  for (int r = 0; r < size; ++r) {
-    displs[r] = total;
-    total += counts[r];
-  }
-  std::vector<double> all(rank == 0 ? total : 0);
-  MPI_Gatherv(local.data(), n, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, 0,
-              comm);
-  if (rank != 0) return {};
-  const int R = mpm::Particles::kRecord;
-  std::vector<std::size_t> order(all.size() / R);
-  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(), [&](auto a, auto b) { return all[a * R] < all[b * R]; });
-  std::vector<double> out(all.size());
-  for (std::size_t i = 0; i < order.size(); ++i) std::copy_n(&all[order[i] * R], R, &out[i * R]);
-  return out;
-}
+using test::gather_sorted;
 
 //! The scene on MPI_COMM_WORLD and on MPI_COMM_SELF (rank 0) must agree in every bit.
 void expect_bit_identical(const Scene& scene, int substeps) {

@@ -17,30 +17,19 @@
 #include "mpm/MpmSimulation.hpp"
 #include "mpm/Seeding.hpp"
 #include "mpm/Solver.hpp"
+#include "mpm_test_util.hpp"
 
 namespace gen4d {
 namespace {
+
+using test::gather_sorted;
+using test::grid;
+using test::jelly;
 
 int world_rank() {
   int r = 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &r);
   return r;
-}
-
-std::shared_ptr<const mpm::Material> jelly() {
-  mpm::MaterialParams p;
-  p.model = "fixed_corotated";
-  p.values = {{"youngs_modulus", 2e5}, {"poisson_ratio", 0.3}, {"density", 1000}};
-  p.source = "test";
-  return mpm::make_material(p);
-}
-
-mpm::GridSpec grid() {
-  mpm::GridSpec g;
-  g.dx = 0.05;
-  g.lo = {-0.3, -0.3, -0.3};
-  g.cells = {20, 16, 18};
-  return g;
 }
 
 struct Scene {
@@ -75,34 +64,6 @@ void run_until(mpm::Solver& s, double& t, double until) {
     s.substep(t, dt);
     t = dt == until - t ? until : t + dt;
   }
-}
-
-//! Every particle's record, sorted by id, on rank 0 of `comm` (empty elsewhere).
-std::vector<double> gather_sorted(MPI_Comm comm, const mpm::Particles& p) {
-  int rank = 0, size = 1;
-  MPI_Comm_rank(comm, &rank);
-  MPI_Comm_size(comm, &size);
-  const int R = mpm::Particles::kRecord;
-  std::vector<double> local(p.size() * R);
-  for (std::size_t i = 0; i < p.size(); ++i) p.pack(i, &local[i * R]);
-  const int n = static_cast<int>(local.size());
-  std::vector<int> counts(size), displs(size);
-  MPI_Gather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm);
-  int total = 0;
-  for (int r = 0; r < size; ++r) {
-    displs[r] = total;
-    total += counts[r];
-  }
-  std::vector<double> all(rank == 0 ? total : 0);
-  MPI_Gatherv(local.data(), n, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, 0,
-              comm);
-  if (rank != 0) return {};
-  std::vector<std::size_t> order(all.size() / R);
-  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(), [&](auto a, auto b) { return all[a * R] < all[b * R]; });
-  std::vector<double> out(all.size());
-  for (std::size_t i = 0; i < order.size(); ++i) std::copy_n(&all[order[i] * R], R, &out[i * R]);
-  return out;
 }
 
 // Record layout (Particles::pack): id, x (3), v (3), C (9), ...

@@ -21,9 +21,12 @@
 #include "mpm/Solver.hpp"
 #include "mpm/SplatParticles.hpp"
 #include "parallel/Distribute.hpp"
+#include "mpm_test_util.hpp"
 
 namespace gen4d {
 namespace {
+
+using test::grid;
 
 int rank_of(MPI_Comm comm) {
   int r = 0;
@@ -57,22 +60,6 @@ gaussians::SplatSet synthetic_splats(std::size_t n, const Vec3d& lo, const Vec3d
     for (int k = 0; k < 12; ++k) s.sh.push_back(g(rng));
   }
   return s;
-}
-
-std::shared_ptr<const mpm::Material> elastic() {
-  mpm::MaterialParams p;
-  p.model = "fixed_corotated";
-  p.values = {{"youngs_modulus", 2e5}, {"poisson_ratio", 0.3}, {"density", 1000}};
-  p.source = "test";
-  return mpm::make_material(p);
-}
-
-mpm::GridSpec grid() {
-  mpm::GridSpec g;
-  g.dx = 0.05;
-  g.lo = {-0.3, -0.3, -0.3};
-  g.cells = {20, 16, 18};
-  return g;
 }
 
 const gaussians::SplatSet& block_splats() {
@@ -134,7 +121,7 @@ long differing(const Gathered& a, const Gathered& b) {
 std::unique_ptr<mpm::Solver> make_solver(MPI_Comm comm, const mpm::SolverOptions& opt,
                                          const std::vector<BoundaryConfig>& bcs,
                                          const gaussians::SplatSet& splats) {
-  auto m = elastic();
+  auto m = test::jelly();
   auto s = std::make_unique<mpm::Solver>(comm, grid(), m, opt, bcs);
   s->distribute(mpm::seed_splats(comm, grid(), splats, *m, {0.2, 0, -0.8}, 0));
   return s;
@@ -152,7 +139,7 @@ void advance(mpm::Solver& s, const mpm::SplatLayout& layout, mpm::CovarianceUpda
 
 TEST(MpmSplats, SeedingGivesCellVolumesAndDenseIds) {
   const auto& splats = block_splats();
-  auto m = elastic();
+  auto m = test::jelly();
   const mpm::Particles p = mpm::seed_splats(MPI_COMM_WORLD, grid(), splats, *m, {0, 0, 0}, 7);
   const mpm::SplatLayout layout{1};
   ASSERT_EQ(p.extra_width, layout.width());
@@ -193,7 +180,7 @@ TEST(MpmSplats, SeedingGivesCellVolumesAndDenseIds) {
 TEST(MpmSplats, SplatOutsideTheGridIsAnInputError) {
   gaussians::SplatSet s = synthetic_splats(10, {0, 0, 0}, {0.1, 0.1, 0.1});
   s.position[3 * 4 + 2] = 5.0;
-  auto m = elastic();
+  auto m = test::jelly();
   EXPECT_THROW(mpm::seed_splats(MPI_COMM_WORLD, grid(), s, *m, {0, 0, 0}, 0, 0, "deck.toml"),
                InputError);
 }
@@ -277,8 +264,8 @@ TEST(MpmSplats, CheckpointRestartAtOtherRankCountsIsBitIdentical) {
     EXPECT_EQ(meta.extra_names, layout.names());
     EXPECT_EQ(p.extra_width, layout.width());
     EXPECT_EQ(mpm::SplatLayout::from_names(meta.extra_names, path).sh_degree, 1);
-    auto s =
-        std::make_unique<mpm::Solver>(comm, grid(), elastic(), falling_options(), floor_collider());
+    auto s = std::make_unique<mpm::Solver>(comm, grid(), test::jelly(), falling_options(),
+                                           floor_collider());
     s->distribute(std::move(p));
     double t = meta.time;
     advance(*s, layout, mode, 25, t);
@@ -313,7 +300,7 @@ TEST(MpmSplats, RigidRotationTurnsFAndCovariances) {
   opt.adaptive = false;
   opt.max_dt = dt;
   for (auto mode : {mpm::CovarianceUpdate::DeformationGradient, mpm::CovarianceUpdate::Rate}) {
-    auto m = elastic();
+    auto m = test::jelly();
     mpm::Solver s(MPI_COMM_WORLD, grid(), m, opt, {spin});
     s.distribute(mpm::seed_splats(MPI_COMM_WORLD, grid(), splats, *m, {0, 0, 0}, 0));
     double t = 0;

@@ -14,6 +14,7 @@
 #include "core/Error.hpp"
 #include "elastogen/Simulation.hpp"
 #include "elastogen_test_util.hpp"
+#include "mpm_test_util.hpp"
 #include "mpm/MaterialSet.hpp"
 #include "mpm/MpmSimulation.hpp"
 
@@ -212,41 +213,8 @@ TEST(MaterialSet, EachRunOfSlotsIsUpdatedByItsOwnMaterial) {
   EXPECT_GT(std::abs(b[1] - a[1]), 10 * std::abs(a[1]));
 }
 
-//! Every particle's (id, slot, mass, x, v, F, state) on rank 0, sorted by id.
-std::vector<double> gather(MPI_Comm comm, const mpm::Particles& p) {
-  constexpr int W = 3 + 3 + 3 + 9 + mpm::kStateSize;
-  std::vector<double> local;
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    local.push_back(static_cast<double>(p.id[i]));
-    local.push_back(p.material[i]);
-    local.push_back(p.mass[i]);
-    local.insert(local.end(), &p.x[3 * i], &p.x[3 * i] + 3);
-    local.insert(local.end(), &p.v[3 * i], &p.v[3 * i] + 3);
-    local.insert(local.end(), &p.F[9 * i], &p.F[9 * i] + 9);
-    local.insert(local.end(), &p.state[mpm::kStateSize * i],
-                 &p.state[mpm::kStateSize * i] + mpm::kStateSize);
-  }
-  int rank = 0, size = 1;
-  MPI_Comm_rank(comm, &rank);
-  MPI_Comm_size(comm, &size);
-  const int count = static_cast<int>(local.size());
-  std::vector<int> counts(size), displs(size);
-  MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm);
-  int total = 0;
-  for (int r = 0; r < size; ++r) {
-    displs[r] = total;
-    total += counts[r];
-  }
-  std::vector<double> all(rank == 0 ? total : 0);
-  MPI_Gatherv(local.data(), count, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE,
-              0, comm);
-  std::vector<std::size_t> order(all.size() / W);
-  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(), [&](auto a, auto b) { return all[a * W] < all[b * W]; });
-  std::vector<double> out;
-  for (std::size_t i : order) out.insert(out.end(), &all[i * W], &all[i * W] + W);
-  return out;
-}
+// Particles::pack's record: id, x (3), v (3), C (9), F (9), state, mass, volume, flag, slot.
+constexpr int kV = 4, kMass = 25 + mpm::kStateSize, kSlot = 28 + mpm::kStateSize;
 
 std::vector<double> run_scene(MPI_Comm comm, const Config& cfg, int substeps) {
   mpm::MpmSimulation sim(comm, cfg);
@@ -256,14 +224,14 @@ std::vector<double> run_scene(MPI_Comm comm, const Config& cfg, int substeps) {
     sim.solver().substep(t, dt);
     t += dt;
   }
-  return gather(comm, sim.solver().particles());
+  return test::gather_sorted(comm, sim.solver().particles());
 }
 
 //! Slots and masses as the deck says, and the scene bit-identical on MPI_COMM_WORLD and on one
 //! rank.
 void expect_scene(const char* text, double density0, double density1, long expected_slot1) {
   const Config cfg = deck(text);
-  constexpr int W = 3 + 3 + 3 + 9 + mpm::kStateSize;
+  constexpr int W = mpm::Particles::kRecord;
   const std::vector<double> dist = run_scene(MPI_COMM_WORLD, cfg, 25);
   if (test::world_rank() != 0) return;
   const std::vector<double> serial = run_scene(MPI_COMM_SELF, cfg, 25);
@@ -274,16 +242,16 @@ void expect_scene(const char* text, double density0, double density1, long expec
   long slot1 = 0;
   double moved = 0;
   for (std::size_t i = 0; i < serial.size(); i += W) {
-    const int slot = static_cast<int>(serial[i + 1]);
-    slot1 += slot == 1;
-    moved = std::max(moved, std::abs(serial[i + 8]));
+    slot1 += serial[i + kSlot] == 1;
+    for (int d = 0; d < 3; ++d) moved = std::max(moved, std::abs(serial[i + kV + d]));
   }
   EXPECT_EQ(slot1, expected_slot1);
   EXPECT_GT(moved, 1e-2);  // the scene really moves
   // Mass = density x rest volume: the ratio of a slot-1 to a slot-0 particle of the same
   // lattice volume is the density ratio.
   double m0 = 0, m1 = 0;
-  for (std::size_t i = 0; i < serial.size(); i += W) (serial[i + 1] == 0 ? m0 : m1) = serial[i + 2];
+  for (std::size_t i = 0; i < serial.size(); i += W)
+    (serial[i + kSlot] == 0 ? m0 : m1) = serial[i + kMass];
   EXPECT_DOUBLE_EQ(m1 / m0, density1 / density0);
 }
 

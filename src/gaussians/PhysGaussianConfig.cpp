@@ -35,7 +35,10 @@
 // domain.voxel_size = grid_lim / n_grid, mpm.substep = "fixed" (PhysGaussian's substeps never
 // adapt). simulation.dt = substep_dt, end_time = frame_dt frame_num, output.frame_interval =
 // frame_dt: gen4d rounds frame_dt / substep_dt to whole substeps, PhysGaussian truncates
-// (int(0.04 / 2e-5) = 1999). simulation.gravity = g.
+// (int(0.04 / 2e-5) = 1999). simulation.gravity = g. A particle reaching the grid's last two
+// node layers is clamped back inside (mpm.out_of_domain = "clamp", counted in the progress
+// line); PhysGaussian indexes past its grid arrays there (illegal memory accesses on the GPU,
+// its issues #10, #11 and #35).
 // [[geometry]] type "splats": the trained PLY with scale s, rotate_axis / rotate_degrees the
 // axis and angle of the composite R, translate 1 - s c, and opacity_threshold; or, for a PLY
 // written from the preprocessed selection, that file untransformed (the only way to honour
