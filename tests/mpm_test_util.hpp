@@ -31,6 +31,15 @@ inline mpm::GridSpec grid() {
   return g;
 }
 
+//! `substeps` adaptive substeps of `s` from time t (advanced).
+inline void run(mpm::Solver& s, int substeps, double& t) {
+  for (int k = 0; k < substeps; ++k) {
+    const double dt = s.stable_dt(1.0);
+    s.substep(t, dt);
+    t += dt;
+  }
+}
+
 //! Every particle's record (Particles::pack), sorted by id, on rank 0 of `comm` (empty
 //! elsewhere): how the tests compare runs at different rank counts bit for bit.
 inline std::vector<double> gather_sorted(MPI_Comm comm, const mpm::Particles& p) {

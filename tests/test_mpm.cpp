@@ -69,15 +69,8 @@ std::unique_ptr<mpm::Solver> make(MPI_Comm comm, const Scene& s) {
   return solver;
 }
 
-void run(mpm::Solver& s, int substeps, double& t) {
-  for (int k = 0; k < substeps; ++k) {
-    const double dt = s.stable_dt(1.0);
-    s.substep(t, dt);
-    t += dt;
-  }
-}
-
 using test::gather_sorted;
+using test::run;
 
 //! The scene on MPI_COMM_WORLD and on MPI_COMM_SELF (rank 0) must agree in every bit.
 void expect_bit_identical(const Scene& scene, int substeps) {

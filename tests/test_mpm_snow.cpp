@@ -374,15 +374,8 @@ std::unique_ptr<mpm::Solver> drop(MPI_Comm comm) {
   return solver;
 }
 
-void run(mpm::Solver& s, int substeps, double& t) {
-  for (int k = 0; k < substeps; ++k) {
-    const double dt = s.stable_dt(1.0);
-    s.substep(t, dt);
-    t += dt;
-  }
-}
-
 using test::gather_sorted;
+using test::run;
 
 TEST(MpmSnow, DroppedBlockCompactsIdenticallyAtEveryRankCount) {
   constexpr int kSubsteps = 1500;
