@@ -20,9 +20,12 @@
 #include "core/Error.hpp"
 #include "materials/Mat3.hpp"
 #include "mpm/Material.hpp"
+#include "mat3_test_util.hpp"
 
 namespace mpm = gen4d::mpm;
 using gen4d::materials::Mat3;
+using gen4d::test::from_eigen;
+using gen4d::test::to_eigen;
 
 namespace {
 
@@ -93,20 +96,6 @@ Mat3 update(const mpm::Material& m, Mat3& F, State& st, double dt) {
 
 // ---------------------------------------------------------------------------------------------
 // Linear algebra reference (Eigen, independent of the solver's svd3)
-
-Eigen::Matrix3d to_eigen(const Mat3& A) {
-  Eigen::Matrix3d M;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) M(r, c) = A(r, c);
-  return M;
-}
-
-Mat3 from_eigen(const Eigen::Matrix3d& M) {
-  Mat3 A;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) A(r, c) = M(r, c);
-  return A;
-}
 
 Mat3 identity() {
   return gen4d::materials::identity3();

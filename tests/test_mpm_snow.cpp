@@ -22,10 +22,13 @@
 #include "mpm/Seeding.hpp"
 #include "mpm/Solver.hpp"
 #include "mpm_test_util.hpp"
+#include "mat3_test_util.hpp"
 
 namespace gen4d {
 namespace {
 
+using gen4d::test::from_eigen;
+using gen4d::test::to_eigen;
 using materials::Mat3;
 
 // Stomakhin et al.'s reference snow: E = 1.4e5 Pa, nu = 0.2, density 400 kg/m^3, and the
@@ -71,20 +74,6 @@ Mat3 stress(const mpm::Material& m, const Mat3& F, const State& st) {
   Mat3 tau;
   m.stress(1, F.a, st.s, tau.a);
   return tau;
-}
-
-Eigen::Matrix3d to_eigen(const Mat3& A) {
-  Eigen::Matrix3d M;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) M(r, c) = A(r, c);
-  return M;
-}
-
-Mat3 from_eigen(const Eigen::Matrix3d& M) {
-  Mat3 A;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) A(r, c) = M(r, c);
-  return A;
 }
 
 Eigen::Matrix3d random_rotation(std::mt19937_64& rng) {

@@ -17,9 +17,12 @@
 #include "neural/ArrayFile.hpp"
 #include "neural/NeuralMtl.hpp"
 #include "neural_test_util.hpp"
+#include "mat3_test_util.hpp"
 
 namespace gn = gen4d::neural;
 using gen4d::materials::Mat3;
+using gen4d::test::from_eigen;
+using gen4d::test::to_eigen;
 
 namespace {
 
@@ -60,19 +63,6 @@ std::vector<double> random_sigmas(std::size_t n, unsigned seed) {
     for (int a = 0; a < 3; ++a) s[3 * p + a] = v[a];
   }
   return s;
-}
-
-Mat3 to_mat(const Eigen::Matrix3d& M) {
-  Mat3 r;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) r.a[3 * i + j] = M(i, j);
-  return r;
-}
-Eigen::Matrix3d to_eigen(const Mat3& M) {
-  Eigen::Matrix3d r;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) r(i, j) = M.a[3 * i + j];
-  return r;
 }
 
 std::string scratch(const std::string& name) {
@@ -154,8 +144,8 @@ TEST(NeuralMtl, NeuralStrainIsSymmetricAndRotationInvariant) {
                                   .normalized()
                                   .toRotationMatrix();
     Mat3 P, PQ;
-    const double e = mat.energy_and_pk1(to_mat(F), P);
-    const double eq = mat.energy_and_pk1(to_mat(Q * F), PQ);
+    const double e = mat.energy_and_pk1(from_eigen(F), P);
+    const double eq = mat.energy_and_pk1(from_eigen(Q * F), PQ);
     EXPECT_NEAR(eq, e, 1e-10 * std::fabs(e));
     // Rotating the deformation rotates the stress: P(QF) = Q P(F).
     EXPECT_LT((to_eigen(PQ) - Q * to_eigen(P)).norm(), 1e-9 * (1 + to_eigen(P).norm()));

@@ -11,24 +11,15 @@
 #include <vector>
 
 #include "materials/Svd3.hpp"
+#include "mat3_test_util.hpp"
 
 namespace gm = gen4d::materials;
+using gen4d::test::from_eigen;
+using gen4d::test::to_eigen;
 using gm::Mat3;
 using gm::Vec3;
 
 namespace {
-
-using RowMat = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
-
-Eigen::Matrix3d to_eigen(const Mat3& A) {
-  return Eigen::Map<const RowMat>(A.a);
-}
-
-Mat3 from_eigen(const Eigen::Matrix3d& A) {
-  Mat3 M;
-  Eigen::Map<RowMat>(M.a) = A;
-  return M;
-}
 
 Mat3 random_rotation(std::mt19937_64& rng) {
   std::normal_distribution<double> normal;
