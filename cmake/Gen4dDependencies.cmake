@@ -3,6 +3,8 @@
 find_package(PkgConfig REQUIRED)
 find_package(MPI REQUIRED COMPONENTS C CXX)
 find_package(Threads REQUIRED)
+# Host threads of the pointwise kernels (core/ParallelFor.hpp).
+find_package(OpenMP REQUIRED COMPONENTS CXX)
 
 pkg_check_modules(PETSC REQUIRED IMPORTED_TARGET PETSc)
 pkg_check_modules(HDF5MPI REQUIRED IMPORTED_TARGET hdf5-openmpi)

@@ -10,10 +10,12 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "core/Error.hpp"
+#include "core/ParallelFor.hpp"
 #include "neural/ArrayFile.hpp"
 #include "neural/NeuralMtl.hpp"
 #include "neural_test_util.hpp"
@@ -83,21 +85,57 @@ std::string input_error(F&& f) {
 
 }  // namespace
 
+// Every instruction-set build of the kernel this CPU runs, on several architectures (widths
+// padded inside the kernel, a 64-wide layer, three hidden layers).
 TEST(NeuralMtl, KernelMatchesReferenceIncludingPartialLanes) {
-  const auto w = random_weights(1);
-  const gn::NeuralMtl net(w);
-  for (std::size_t n : {1u, 7u, 8u, 13u, 1000u}) {
-    const auto s = random_sigmas(n, 10 + n);
-    std::vector<double> strain(3 * n), psi(n), grad(3 * n);
-    net.strain(n, s.data(), strain.data());
-    net.evaluate(n, s.data(), psi.data(), grad.data());
-    for (std::size_t p = 0; p < n; ++p) {
-      double ref[3];
-      reference(w, &s[3 * p], ref);
-      for (int a = 0; a < 3; ++a) EXPECT_NEAR(strain[3 * p + a], ref[a], 1e-13) << p;
-      EXPECT_NEAR(psi[p], 0.5 * (ref[0] * ref[0] + ref[1] * ref[1] + ref[2] * ref[2]), 1e-13);
+  const std::string in_use = gn::NeuralMtl::isa();
+  for (const std::string& isa : gn::NeuralMtl::isas()) {
+    gn::NeuralMtl::select_isa(isa);
+    for (const std::vector<int>& hidden :
+         std::vector<std::vector<int>>{{24, 24}, {64, 5}, {16, 20, 12}}) {
+      const auto w = random_weights(1, hidden);
+      const gn::NeuralMtl net(w);
+      for (std::size_t n : {1u, 3u, 7u, 8u, 13u, 1000u}) {
+        const auto s = random_sigmas(n, 10 + n);
+        std::vector<double> strain(3 * n), psi(n), grad(3 * n);
+        net.strain(n, s.data(), strain.data());
+        net.evaluate(n, s.data(), psi.data(), grad.data());
+        for (std::size_t p = 0; p < n; ++p) {
+          double ref[3];
+          reference(w, &s[3 * p], ref);
+          for (int a = 0; a < 3; ++a)
+            EXPECT_NEAR(strain[3 * p + a], ref[a], 1e-13)
+                << isa << " " << hidden.size() << " " << p;
+          EXPECT_NEAR(psi[p], 0.5 * (ref[0] * ref[0] + ref[1] * ref[1] + ref[2] * ref[2]), 1e-13)
+              << isa;
+        }
+      }
     }
   }
+  gn::NeuralMtl::select_isa(in_use);
+  EXPECT_THROW(gn::NeuralMtl::select_isa("sse9"), std::invalid_argument);
+}
+
+// The batch is shared among host threads; each point's result must not depend on how.
+TEST(NeuralMtl, ThreadsGiveIdenticalResults) {
+  const gn::NeuralMtl net(random_weights(9));
+  const std::size_t n = 40001;  // above the serial threshold, a partial lane group at the end
+  const auto s = random_sigmas(n, 4);
+  auto run = [&](int threads) {
+    const int before = gen4d::exec::host_threads();
+#if defined(_OPENMP)
+    omp_set_num_threads(threads);
+#endif
+    std::vector<double> out(4 * n);
+    net.evaluate(n, s.data(), out.data(), out.data() + n);
+#if defined(_OPENMP)
+    omp_set_num_threads(before);
+#endif
+    return out;
+  };
+  const auto one = run(1), two = run(2), three = run(3);
+  EXPECT_EQ(one, two);
+  EXPECT_EQ(one, three);
 }
 
 TEST(NeuralMtl, GradientIsTheDerivativeOfTheEnergy) {

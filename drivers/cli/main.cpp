@@ -20,6 +20,7 @@
 #include "cli/Commands.hpp"
 #include "core/Error.hpp"
 #include "core/Log.hpp"
+#include "core/ParallelFor.hpp"
 #ifdef GEN4D_WITH_TORCH
 #include "neural_train/Install.hpp"
 #endif
@@ -38,6 +39,7 @@ int main(int argc, char** argv) {
   int rank = 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   gen4d::log::set_rank(rank);
+  gen4d::exec::configure_threads();  // OMP_NUM_THREADS, else the node's cores per rank
   // gen4d handles SIGTERM/SIGUSR1 itself (checkpoint, then stop); PETSc must not trap them.
   PetscOptionsSetValue(nullptr, "-no_signal_handler", nullptr);
   PetscOptionsSetValue(nullptr, "-options_left", "0");

@@ -12,6 +12,7 @@
 
 #include "core/Error.hpp"
 #include "core/Log.hpp"
+#include "core/ParallelFor.hpp"
 #include "elastogen/Simulation.hpp"
 #ifdef GEN4D_WITH_TORCH
 #include "neural_train/Install.hpp"
@@ -28,6 +29,7 @@ inline int main_with(int argc, char** argv, const char* description,
   int rank = 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   log::set_rank(rank);
+  exec::configure_threads();  // OMP_NUM_THREADS, else the node's cores per rank
   PetscOptionsSetValue(nullptr, "-no_signal_handler", nullptr);
   PetscInitializeNoArguments();
 #ifdef GEN4D_WITH_TORCH

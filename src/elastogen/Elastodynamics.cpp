@@ -42,6 +42,19 @@ NeuralStress stress_of(const neural::NeuralMaterial& mat) {
   return NeuralStress{mat};
 }
 
+//! The stress callback of the voxel solver's internal forces (both solvers' residual): the
+//! fixed corotated and ARAP laws take their rotation from a Newton polar iteration instead of
+//! an SVD (same stress and energy to rounding); the others as stress_of.
+template <class Material>
+auto local_stress_of(const Material& mat) {
+  if constexpr (std::is_same_v<Material, materials::FixedCorotated>)
+    return CorotatedPolarStress{mat};
+  else if constexpr (std::is_same_v<Material, materials::Arap>)
+    return ArapPolarStress{mat};
+  else
+    return stress_of(mat);
+}
+
 //! Calls f with the true law of the deck (target "analytic" and the reference solver).
 template <class F>
 auto with_law(const MaterialConfig& m, F&& f) {
@@ -298,16 +311,16 @@ parallel::ExactSum Elastodynamics::internal_forces(const std::vector<double>& x,
   // The runtime choice of local model picks one instantiation of the stencil loop.
   return with_material(cfg_.material, net_.get(), [&](const auto& m) {
     if (cfg_.material_regions.empty())
-      return sys_.internal_forces(stress_of(m), x.data(), f.data());
+      return sys_.internal_forces(local_stress_of(m), x.data(), f.data());
     // Several [[material]] entries share the law and target (the deck checks it): one stress
     // per slot, of the same type.
     using Law = std::decay_t<decltype(m)>;
-    PerSlot<decltype(stress_of(m))> slots;
-    slots.slots.push_back(stress_of(m));
+    PerSlot<decltype(local_stress_of(m))> slots;
+    slots.slots.push_back(local_stress_of(m));
     for (const MaterialConfig& r : cfg_.material_regions)
       with_material(r, nullptr, [&](const auto& mr) {
         if constexpr (std::is_same_v<std::decay_t<decltype(mr)>, Law>)
-          slots.slots.push_back(stress_of(mr));
+          slots.slots.push_back(local_stress_of(mr));
         else
           throw std::logic_error("[[material]] entries of different laws reached the voxel solver");
       });
@@ -323,13 +336,15 @@ double Elastodynamics::residual(const std::vector<double>& y, std::vector<double
   }
   const auto& m = sys_.mass();
   const double inv_dt2 = 1.0 / (dt_ * dt_);
-  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
-    for (int d = 0; d < 3; ++d) {
-      const double dx = y[3 * n + d] - x_[3 * n + d];
-      r[3 * n + d] = sys_.free_mask()[n] ? m[n] * dx * inv_dt2 + fint_[3 * n + d] : 0.0;
-      phi[1].add(0.5 * m[n] * dx * dx * inv_dt2);
-    }
-  });
+  reduce_owned(sys_.owned(), sys_.ghosted(), 1, &phi[1],
+               [&](std::size_t n, long, long, long, parallel::ExactSum* acc) {
+                 for (int d = 0; d < 3; ++d) {
+                   const double dx = y[3 * n + d] - x_[3 * n + d];
+                   r[3 * n + d] =
+                       sys_.free_mask()[n] ? m[n] * dx * inv_dt2 + fint_[3 * n + d] : 0.0;
+                   acc[0].add(0.5 * m[n] * dx * dx * inv_dt2);
+                 }
+               });
   double g[2];
   PhaseTimers::Scope t(timers_, "reduction");
   solver_.reducer().sum(phi, g, 2);
@@ -338,13 +353,14 @@ double Elastodynamics::residual(const std::vector<double>& y, std::vector<double
 
 double Elastodynamics::owned_norm(const std::vector<double>& a, const std::vector<double>* b) {
   parallel::ExactSum s;
-  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
-    if (!sys_.free_mask()[n]) return;
-    for (int d = 0; d < 3; ++d) {
-      const double v = b ? a[3 * n + d] - (*b)[3 * n + d] : a[3 * n + d];
-      s.add(v * v);
-    }
-  });
+  reduce_owned(sys_.owned(), sys_.ghosted(), 1, &s,
+               [&](std::size_t n, long, long, long, parallel::ExactSum* acc) {
+                 if (!sys_.free_mask()[n]) return;
+                 for (int d = 0; d < 3; ++d) {
+                   const double v = b ? a[3 * n + d] - (*b)[3 * n + d] : a[3 * n + d];
+                   acc[0].add(v * v);
+                 }
+               });
   double g = 0;
   PhaseTimers::Scope t(timers_, "reduction");
   solver_.reducer().sum(&s, &g, 1);
@@ -356,7 +372,7 @@ StepStats Elastodynamics::step(double t) {
   const auto& free = sys_.free_mask();
   external_forces(t, fext_);
   xn_ = x_;
-  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+  parallel_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
     for (int d = 0; d < 3; ++d) {
       const std::size_t q = 3 * n + d;
       y_[q] = free[n] ? xn_[q] + dt_ * v_[q] + dt_ * dt_ * fext_[q] / m[n] : xn_[q];
@@ -398,7 +414,7 @@ StepStats Elastodynamics::step(double t) {
       // The accelerated iterate raised the objective: take the plain local-global step.
       ++st.rejected;
       anderson_.reset();
-      for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+      parallel_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
         for (int d = 0; d < 3; ++d) x_[3 * n + d] = x_prev_[3 * n + d] + delta_[3 * n + d];
       });
       gather_x();
@@ -433,13 +449,14 @@ StepStats Elastodynamics::step(double t) {
   const double fext_norm = owned_norm(fext_);
   auto accuracy = [&]() {
     parallel::ExactSum s;
-    for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
-      if (!free[n]) return;
-      for (int d = 0; d < 3; ++d) {
-        const double a = m[n] * (x_[3 * n + d] - y_[3 * n + d]) / (dt_ * dt_);
-        s.add(a * a);
-      }
-    });
+    reduce_owned(sys_.owned(), sys_.ghosted(), 1, &s,
+                 [&](std::size_t n, long, long, long, parallel::ExactSum* acc) {
+                   if (!free[n]) return;
+                   for (int d = 0; d < 3; ++d) {
+                     const double a = m[n] * (x_[3 * n + d] - y_[3 * n + d]) / (dt_ * dt_);
+                     acc[0].add(a * a);
+                   }
+                 });
     double inertia2 = 0;
     solver_.reducer().sum(&s, &inertia2, 1);
     const double denom = std::sqrt(inertia2) + fext_norm;
@@ -455,7 +472,7 @@ StepStats Elastodynamics::step(double t) {
   st.accurate = st.accuracy <= scfg.accuracy_tolerance;
   // Static colliders act on the end-of-step positions, identically for both solvers.
   if (!colliders_.empty()) resolve_contacts(st);
-  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+  parallel_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
     for (int d = 0; d < 3; ++d) v_[3 * n + d] = (x_[3 * n + d] - xn_[3 * n + d]) / dt_;
   });
   {

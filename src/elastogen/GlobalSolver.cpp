@@ -36,9 +36,10 @@ GlobalSolver::GlobalSolver(VoxelSystem& sys, const SolverConfig& cfg, double k, 
 
 double GlobalSolver::owned_norm2(const std::vector<double>& a) {
   parallel::ExactSum s;
-  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
-    for (int d = 0; d < 3; ++d) s.add(a[3 * n + d] * a[3 * n + d]);
-  });
+  reduce_owned(sys_.owned(), sys_.ghosted(), 1, &s,
+               [&](std::size_t n, long, long, long, parallel::ExactSum* acc) {
+                 for (int d = 0; d < 3; ++d) acc[0].add(a[3 * n + d] * a[3 * n + d]);
+               });
   double g = 0;
   PhaseTimers::Scope t(timers_, "reduction");
   red_.sum(&s, &g, 1);
@@ -108,13 +109,14 @@ void GlobalSolver::subspace_start(const std::vector<double>& r, std::vector<doub
   std::vector<parallel::ExactSum> local(static_cast<std::size_t>(3 * K));
   {
     PhaseTimers::Scope t(timers_, "subspace");
-    for_owned(sys_.owned(), G, [&](std::size_t n, long i, long j, long k) {
-      if (!free[n]) return;
-      for (int m = 0; m < K; ++m) {
-        const double phi = mode_value(modes_[m], i, j, k);
-        for (int d = 0; d < 3; ++d) local[3 * m + d].add(phi * r[3 * n + d]);
-      }
-    });
+    reduce_owned(sys_.owned(), G, local.size(), local.data(),
+                 [&](std::size_t n, long i, long j, long k, parallel::ExactSum* acc) {
+                   if (!free[n]) return;
+                   for (int m = 0; m < K; ++m) {
+                     const double phi = mode_value(modes_[m], i, j, k);
+                     for (int d = 0; d < 3; ++d) acc[3 * m + d].add(phi * r[3 * n + d]);
+                   }
+                 });
   }
   Eigen::MatrixXd rhs(3, K);
   {
@@ -123,18 +125,15 @@ void GlobalSolver::subspace_start(const std::vector<double>& r, std::vector<doub
   }
   PhaseTimers::Scope t(timers_, "subspace");
   const Eigen::MatrixXd coef = subspace_pinv_ * rhs.transpose();  // K x 3
-  for (long k = G.start[2]; k < G.start[2] + G.count[2]; ++k)
-    for (long j = G.start[1]; j < G.start[1] + G.count[1]; ++j)
-      for (long i = G.start[0]; i < G.start[0] + G.count[0]; ++i) {
-        const std::size_t n = G.index(i, j, k);
-        double acc[3] = {0, 0, 0};
-        if (free[n])
-          for (int m = 0; m < K; ++m) {
-            const double phi = mode_value(modes_[m], i, j, k);
-            for (int d = 0; d < 3; ++d) acc[d] += phi * coef(m, d);
-          }
-        for (int d = 0; d < 3; ++d) delta[3 * n + d] = acc[d];
+  parallel_owned(G, G, [&](std::size_t n, long i, long j, long k) {
+    double acc[3] = {0, 0, 0};
+    if (free[n])
+      for (int m = 0; m < K; ++m) {
+        const double phi = mode_value(modes_[m], i, j, k);
+        for (int d = 0; d < 3; ++d) acc[d] += phi * coef(m, d);
       }
+    for (int d = 0; d < 3; ++d) delta[3 * n + d] = acc[d];
+  });
 }
 
 InnerStats GlobalSolver::solve(const std::vector<double>& r, std::vector<double>& delta) {
@@ -179,7 +178,7 @@ InnerStats GlobalSolver::jacobi(const std::vector<double>& r, std::vector<double
   }
   if (cur != &delta) {
     PhaseTimers::Scope t(timers_, "sweeps");
-    for_owned(sys_.owned(), G, [&](std::size_t n, long, long, long) {
+    parallel_owned(sys_.owned(), G, [&](std::size_t n, long, long, long) {
       for (int d = 0; d < 3; ++d) delta[3 * n + d] = (*cur)[3 * n + d];
     });
   }
@@ -309,7 +308,7 @@ InnerStats GlobalSolver::chebyshev(const std::vector<double>& r, std::vector<dou
     {
       PhaseTimers::Scope t(timers_, "sweeps");
       sys_.apply(k_, inv_dt2_, delta.data(), ad_.data());
-      for_owned(sys_.owned(), G, [&](std::size_t n, long, long, long) {
+      parallel_owned(sys_.owned(), G, [&](std::size_t n, long, long, long) {
         if (!free[n]) return;
         for (int d = 0; d < 3; ++d) {
           const std::size_t q = 3 * n + d;

@@ -3,7 +3,25 @@
 #include <stdexcept>
 #include <utility>
 
+// The interior row loop is compiled for AVX-512 and AVX2 besides the baseline, picked at run
+// time. Contraction into fused multiply-adds is off there, so every clone rounds each product
+// and sum as the baseline does: results do not depend on the CPU that runs them.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define GEN4D_SWEEP_CLONES \
+  __attribute__((target_clones("avx512f", "avx2", "default"), optimize("fp-contract=off")))
+#else
+#define GEN4D_SWEEP_CLONES
+#endif
+
 namespace gen4d::elastogen {
+
+namespace {
+//! out[q] = (A d)_q for the values q in [0, count) of a run of interior nodes starting at d.
+GEN4D_SWEEP_CLONES void interior_run(const StencilCoefficients s, const double* d, long count,
+                                     long Y, long Z, double* out) {
+  for (long q = 0; q < count; ++q) out[q] = interior_value(s, d, q, Y, Z);
+}
+}  // namespace
 
 VoxelSystem::VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, double h,
                          std::vector<std::uint8_t> occupancy, const std::vector<double>& density,
@@ -44,7 +62,6 @@ VoxelSystem::VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, do
   }
   for (int c = 0; c < 4; ++c) stencil_class_[c] /= members[c];
   for (int m = 0; m < 8; ++m) interior_mass_ += 0.125 * (density.at(0) * h * h * h);
-  row_.assign(3 * G.count[0], 0.0);
   adj_.assign(G.size(), 0);
   mass_.assign(G.size(), 0.0);
   free_.assign(G.size(), 0);
@@ -106,68 +123,44 @@ void VoxelSystem::operator_rows(double k, double inv_dt2, const double* delta, E
   const Box& O = owned();
   const double kh = k * h_;
   const long gx = G.count[0], gxy = G.count[0] * G.count[1];
-  // Interior coefficients: (m/dt^2 + k h c_centre), k h c_face, k h c_edge, k h c_corner.
-  const double c0 = interior_mass_ * inv_dt2 + kh * stencil_class_[0];
-  const double cf = kh * stencil_class_[1], ce = kh * stencil_class_[2],
-               cc = kh * stencil_class_[3];
+  const StencilCoefficients sc{interior_mass_ * inv_dt2 + kh * stencil_class_[0],
+                               kh * stencil_class_[1], kh * stencil_class_[2],
+                               kh * stencil_class_[3]};
+  GeneralStencil gs;
+  for (int l = 0; l < 8; ++l)
+    for (int m = 0; m < 8; ++m) gs.kK[l][m] = kh * s.K[l][m];
+  for (int m = 0; m < 8; ++m) gs.corner_offset[m] = corner_offset_[m];
+  gs.gx = gx;
+  gs.gxy = gxy;
   const long Y = 3 * gx, Z = 3 * gxy;
   // Interior: eight solid voxels of slot 0's density (other nodes take the general rows).
   auto interior = [&](std::size_t n) {
     return free_[n] && adj_[n] == 0xFF && mass_[n] == interior_mass_;
   };
-  for (long kk = O.start[2]; kk < O.start[2] + O.count[2]; ++kk)
-    for (long j = O.start[1]; j < O.start[1] + O.count[1]; ++j) {
-      const long i_end = O.start[0] + O.count[0];
-      for (long i = O.start[0]; i < i_end;) {
-        const std::size_t n = G.index(i, j, kk);
-        if (interior(n)) {
-          // A run of interior nodes along x, as one flat array of interleaved xyz values (the
-          // same coefficient acts on all three components), so the loop vectorises. The
-          // arithmetic of a value depends on its neighbourhood only, not on the run.
-          long len = 1;
-          while (i + len < i_end && interior(n + len)) ++len;
-          // Nine neighbouring rows (dy, dz in -1..1) of the run, x offsets -3, 0, +3.
-          const double* d = delta + 3 * n;
-          const double *mm = d - Y - Z, *m0 = d - Z, *mp = d + Y - Z;
-          const double *zm = d - Y, *zp = d + Y;
-          const double *pm = d - Y + Z, *p0 = d + Z, *pp = d + Y + Z;
-          double* o = row_.data();
-          const long count = 3 * len;
-          for (long q = 0; q < count; ++q) {
-            const double faces = (d[q - 3] + d[q + 3]) + (zm[q] + zp[q]) + (m0[q] + p0[q]);
-            const double edges = (zm[q - 3] + zm[q + 3] + zp[q - 3] + zp[q + 3]) +
-                                 (m0[q - 3] + m0[q + 3] + p0[q - 3] + p0[q + 3]) +
-                                 (mm[q] + mp[q] + pm[q] + pp[q]);
-            const double corners = (mm[q - 3] + mm[q + 3] + mp[q - 3] + mp[q + 3]) +
-                                   (pm[q - 3] + pm[q + 3] + pp[q - 3] + pp[q + 3]);
-            o[q] = c0 * d[q] + cf * faces + ce * edges + cc * corners;
-          }
-          emit(n, len, o);
-          i += len;
-          continue;
-        }
-        double acc[3] = {0, 0, 0};
-        if (free_[n]) {
-          const double m = mass_[n] * inv_dt2;
-          for (int dd = 0; dd < 3; ++dd) acc[dd] = m * delta[3 * n + dd];
-          for (int cell = 0; cell < 8; ++cell) {
-            if (!(adj_[n] >> cell & 1)) continue;
-            const int a = cell & 1, b = (cell >> 1) & 1, c = (cell >> 2) & 1;
-            const int l = corner_in_cell(cell);
-            const long base = static_cast<long>(n) - (1 - a) - (1 - b) * gx - (1 - c) * gxy;
-            for (int mm = 0; mm < 8; ++mm) {
-              const double cf8 = kh * s.K[l][mm];
-              const double* src = &delta[3 * (base + corner_offset_[mm])];
-              acc[0] += cf8 * src[0];
-              acc[1] += cf8 * src[1];
-              acc[2] += cf8 * src[2];
-            }
-          }
-        }
-        emit(n, 1, acc);
-        ++i;
+  parallel_box_rows(O, [&](long j, long kk) {
+    double row[3 * 64];  // one run's values at a time (runs are cut at 64 nodes)
+    const long i_end = O.start[0] + O.count[0];
+    for (long i = O.start[0]; i < i_end;) {
+      const std::size_t n = G.index(i, j, kk);
+      if (interior(n)) {
+        // A run of interior nodes along x, as one flat array of interleaved xyz values (the
+        // same coefficient acts on all three components), so the loop vectorises. The
+        // arithmetic of a value depends on its neighbourhood only, not on the run.
+        long len = 1;
+        while (len < 64 && i + len < i_end && interior(n + len)) ++len;
+        interior_run(sc, delta + 3 * n, 3 * len, Y, Z, row);
+        emit(n, len, static_cast<const double*>(row));
+        i += len;
+        continue;
       }
+      double acc[3] = {0, 0, 0};
+      if (free_[n])
+        for (int d = 0; d < 3; ++d)
+          acc[d] = general_value(gs, delta, static_cast<long>(n), adj_[n], mass_[n] * inv_dt2, d);
+      emit(n, 1, static_cast<const double*>(acc));
+      ++i;
     }
+  });
 }
 
 void VoxelSystem::apply(double k, double inv_dt2, const double* delta, double* out) const {
@@ -195,6 +188,45 @@ void VoxelSystem::jacobi_sweep(double k, double inv_dt2, double omega, const dou
       }
     }
   });
+}
+
+JacobiSweepKernel VoxelSystem::jacobi_kernel(double k, double inv_dt2, double omega,
+                                             const double* r, const double* diag,
+                                             const double* mass, const std::uint8_t* free,
+                                             const std::uint8_t* adj, const double* d_old,
+                                             double* d_new, double* res) const {
+  const HexStencil& hs = HexStencil::get();
+  const Box& G = ghosted();
+  const Box& O = owned();
+  const double kh = k * h_;
+  JacobiSweepKernel kern;
+  kern.r = r;
+  kern.diag = diag;
+  kern.mass = mass;
+  kern.free = free;
+  kern.adj = adj;
+  kern.d_old = d_old;
+  kern.d_new = d_new;
+  kern.res = res;
+  kern.s = {interior_mass_ * inv_dt2 + kh * stencil_class_[0], kh * stencil_class_[1],
+            kh * stencil_class_[2], kh * stencil_class_[3]};
+  for (int l = 0; l < 8; ++l)
+    for (int m = 0; m < 8; ++m) kern.g.kK[l][m] = kh * hs.K[l][m];
+  for (int m = 0; m < 8; ++m) kern.g.corner_offset[m] = corner_offset_[m];
+  kern.g.gx = G.count[0];
+  kern.g.gxy = G.count[0] * G.count[1];
+  kern.interior_mass = interior_mass_;
+  kern.inv_dt2 = inv_dt2;
+  kern.omega = omega;
+  kern.o0 = O.start[0] - G.start[0];
+  kern.o1 = O.start[1] - G.start[1];
+  kern.o2 = O.start[2] - G.start[2];
+  kern.n0 = O.count[0];
+  kern.n1 = O.count[1];
+  kern.n2 = O.count[2];
+  kern.Y = 3 * kern.g.gx;
+  kern.Z = 3 * kern.g.gxy;
+  return kern;
 }
 
 void VoxelSystem::diagonal(double k, double inv_dt2, std::vector<double>& diag) const {

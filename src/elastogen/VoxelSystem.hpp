@@ -8,7 +8,10 @@
 #include <vector>
 
 #include "core/Config.hpp"
+#include "elastogen/BoxLoops.hpp"
 #include "elastogen/HexStencil.hpp"
+#include "elastogen/LocalKernels.hpp"
+#include "elastogen/SweepKernel.hpp"
 #include "parallel/Grid.hpp"
 #include "parallel/Halo.hpp"
 #include "parallel/Reduce.hpp"
@@ -76,17 +79,26 @@ class VoxelSystem {
                     const double* d_old, double* d_new, double* res) const;
   //! Diagonal of the same operator on owned nodes (1 on non-free nodes).
   void diagonal(double k, double inv_dt2, std::vector<double>& diag) const;
+  //! The pointwise sweep kernel over the owned values (3 per owned node) with these arrays
+  //! (host or device pointers alike): what the GPU runs, and the CPU path's reference.
+  JacobiSweepKernel jacobi_kernel(double k, double inv_dt2, double omega, const double* r,
+                                  const double* diag, const double* mass, const std::uint8_t* free,
+                                  const std::uint8_t* adj, const double* d_old, double* d_new,
+                                  double* res) const;
+  //! Neighbour-voxel bits per ghosted node (bit `cell` set where that voxel is solid).
+  const std::vector<std::uint8_t>& adjacency() const { return adj_; }
 
   //! Internal forces f = -dE/dx on owned free nodes; returns the elastic energy of owned
   //! cells, unrounded. `stress(F, P)` returns the energy density and writes the first Piola
-  //! stress.
+  //! stress; it is called from several host threads at once (voxels of different rows).
   template <class StressFn>
   parallel::ExactSum internal_forces(const StressFn& stress, const double* x, double* f);
 
  private:
   //! Evaluates A delta row by row and hands each run of owned nodes to
   //! emit(first node, node count, values (3 per node)): runs of interior nodes in one call,
-  //! other nodes one at a time (0 for held or empty nodes).
+  //! other nodes one at a time (0 for held or empty nodes). Rows go to the host threads, so
+  //! emit is called concurrently (for different nodes).
   template <class Emit>
   void operator_rows(double k, double inv_dt2, const double* delta, Emit&& emit) const;
   std::size_t cell_index(long ci, long cj, long ck) const { return cells().index(ci, cj, ck); }
@@ -104,7 +116,6 @@ class VoxelSystem {
   std::array<double, 4> stencil_class_{};      // mean coefficient: centre, face, edge, corner
   double interior_mass_ = 0;                // lumped mass of a node with 8 solid voxels of slot 0
   std::size_t slots_ = 1;                   // material slots
-  mutable std::vector<double> row_;         // one row of operator values
   std::array<long, 27> interior_offset_{};  // ghosted linear offsets of the 27 neighbours
   std::array<long, 8> corner_offset_{};     // ghosted linear offset of corner m from the cell base
 };
@@ -122,68 +133,59 @@ struct IsPerSlot<PerSlot<T>> : std::true_type {};
 template <class StressFn>
 parallel::ExactSum VoxelSystem::internal_forces(const StressFn& stress, const double* x,
                                                 double* f) {
-  const HexStencil& s = HexStencil::get();
   const Box& C = cells();
   const Box& G = ghosted();
   const Box& oc = grid_.owned_cells();
   const double inv_h = 1.0 / h_, w = h_ * h_ * h_ / 8.0;
   parallel::ExactSum energy;
-  cell_forces_.assign(24 * C.size(), 0.0);
-  for (long ck = C.start[2]; ck < C.start[2] + C.count[2]; ++ck)
-    for (long cj = C.start[1]; cj < C.start[1] + C.count[1]; ++cj)
-      for (long ci = C.start[0]; ci < C.start[0] + C.count[0]; ++ci) {
-        const std::size_t c = C.index(ci, cj, ck);
-        if (!occ_[c]) continue;
-        const std::size_t base = G.index(ci, cj, ck);
-        double xe[8][3], fe[8][3] = {};
-        for (int m = 0; m < 8; ++m)
-          for (int a = 0; a < 3; ++a) xe[m][a] = x[3 * (base + corner_offset_[m]) + a];
-        const auto cell = [&](const auto& fn) {
-          using Fn = std::decay_t<decltype(fn)>;
-          double psi = 0;
-          if constexpr (std::is_invocable_r_v<double, const Fn&, const double*, double*, int>) {
-            // Batched material (NeuralMTL): all eight quadrature points in one call.
-            double F[8][9], P[8][9];
-            for (int q = 0; q < 8; ++q) deformation_gradient(s, q, xe, inv_h, F[q]);
-            psi = fn(&F[0][0], &P[0][0], 8);
-            for (int q = 0; q < 8; ++q) add_node_forces(s, q, P[q], w * inv_h, fe);
-          } else {
-            for (int q = 0; q < 8; ++q) {
-              double F[9], P[9];
-              deformation_gradient(s, q, xe, inv_h, F);
-              psi += fn(F, P);
-              add_node_forces(s, q, P, w * inv_h, fe);
-            }
-          }
-          return psi;
-        };
+  // Written for every solid voxel and read only for those (empty voxels are never read).
+  cell_forces_.resize(24 * C.size());
+  // One pass per voxel: the eight deformation gradients, the stresses, the node forces.
+  reduce_box_rows(C, 1, &energy, [&](long cj, long ck, parallel::ExactSum* e) {
+    for (long ci = C.start[0]; ci < C.start[0] + C.count[0]; ++ci) {
+      const std::size_t c = C.index(ci, cj, ck);
+      if (!occ_[c]) continue;
+      const std::size_t base = G.index(ci, cj, ck);
+      double xe[8][3], F[8][9], P[8][9], fe[8][3];
+      for (int m = 0; m < 8; ++m)
+        for (int a = 0; a < 3; ++a) xe[m][a] = x[3 * (base + corner_offset_[m]) + a];
+      HexGauss::gradients(xe, inv_h, F);
+      const auto cell = [&](const auto& fn) {
+        using Fn = std::decay_t<decltype(fn)>;
         double psi = 0;
-        if constexpr (IsPerSlot<StressFn>::value)
-          psi = cell(stress.slots[occ_[c] - 1u]);
-        else
-          psi = cell(stress);
-        if (oc.contains(ci, cj, ck)) energy.add(w * psi);
-        double* dst = &cell_forces_[24 * c];
-        for (int m = 0; m < 8; ++m)
-          for (int a = 0; a < 3; ++a) dst[3 * m + a] = fe[m][a];
-      }
-  const Box& O = owned();
-  for (long k = O.start[2]; k < O.start[2] + O.count[2]; ++k)
-    for (long j = O.start[1]; j < O.start[1] + O.count[1]; ++j)
-      for (long i = O.start[0]; i < O.start[0] + O.count[0]; ++i) {
-        const std::size_t n = G.index(i, j, k);
-        double acc[3] = {0, 0, 0};
-        if (free_[n]) {
-          for (int cell = 0; cell < 8; ++cell) {
-            if (!(adj_[n] >> cell & 1)) continue;
-            const int a = cell & 1, b = (cell >> 1) & 1, cc = (cell >> 2) & 1;
-            const int l = corner_in_cell(cell);
-            const double* src = &cell_forces_[24 * cell_index(i - 1 + a, j - 1 + b, k - 1 + cc)];
-            for (int d = 0; d < 3; ++d) acc[d] -= src[3 * l + d];
-          }
+        if constexpr (std::is_invocable_r_v<double, const Fn&, const double*, double*, int>) {
+          // Batched material (NeuralMTL): all eight quadrature points in one call.
+          psi = fn(&F[0][0], &P[0][0], 8);
+        } else {
+          for (int q = 0; q < 8; ++q) psi += fn(F[q], P[q]);
         }
-        for (int d = 0; d < 3; ++d) f[3 * n + d] = acc[d];
+        return psi;
+      };
+      double psi = 0;
+      if constexpr (IsPerSlot<StressFn>::value)
+        psi = cell(stress.slots[occ_[c] - 1u]);
+      else
+        psi = cell(stress);
+      HexGauss::forces(P, w * inv_h, fe);
+      if (oc.contains(ci, cj, ck)) e[0].add(w * psi);
+      double* dst = &cell_forces_[24 * c];
+      for (int m = 0; m < 8; ++m)
+        for (int a = 0; a < 3; ++a) dst[3 * m + a] = fe[m][a];
+    }
+  });
+  parallel_owned(owned(), G, [&](std::size_t n, long i, long j, long k) {
+    double acc[3] = {0, 0, 0};
+    if (free_[n]) {
+      for (int cell = 0; cell < 8; ++cell) {
+        if (!(adj_[n] >> cell & 1)) continue;
+        const int a = cell & 1, b = (cell >> 1) & 1, cc = (cell >> 2) & 1;
+        const int l = corner_in_cell(cell);
+        const double* src = &cell_forces_[24 * cell_index(i - 1 + a, j - 1 + b, k - 1 + cc)];
+        for (int d = 0; d < 3; ++d) acc[d] -= src[3 * l + d];
       }
+    }
+    for (int d = 0; d < 3; ++d) f[3 * n + d] = acc[d];
+  });
   return energy;  // rank-local; callers reduce it exactly
 }
 

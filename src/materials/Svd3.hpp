@@ -25,114 +25,147 @@ namespace gen4d::materials {
 //! orthogonal; the test suite checks that one sweep fewer already reaches rounding level.
 inline constexpr int kSvdJacobiSweeps = 5;
 
+//! Arithmetic of the number type T the SVD runs on: double, or (host only, Svd3Batch.cpp) a
+//! vector of lanes, each lane one matrix. Every branch of the method is a select, so a lane
+//! computes exactly what the scalar code computes for its matrix.
+template <class T>
+struct SvdOps;
+
+template <>
+struct SvdOps<double> {
+  GEN4D_HD static double splat(double x) { return x; }
+  GEN4D_HD static double sqrt(double x) { return std::sqrt(x); }
+  GEN4D_HD static double abs(double x) { return std::fabs(x); }
+  GEN4D_HD static double select(bool c, double a, double b) { return c ? a : b; }
+};
+
 namespace detail {
+
+// Matrices are row-major arrays of 9 T: m[3 * row + col].
 
 // One-sided (Hestenes) Jacobi rotation J in the (p, q) plane that makes columns p and q of B
 // orthogonal: B <- B J, V <- V J. The 2x2 Gram entries come from the current columns rather than
 // from a precomputed F^T F, so their rounding is relative to |b_p| |b_q| instead of |F|^2; that
 // keeps the reconstruction at eps |F| when F is ill-conditioned (tested at condition number 1e12).
 // Uses the Golub-Van Loan angle (|theta| <= pi/4), written so that orthogonal columns give J = I.
-GEN4D_HD inline void jacobi_rotate_columns(Mat3& B, Mat3& V, int p, int q) {
-  double app = 0.0, aqq = 0.0, apq = 0.0;
+template <class T>
+GEN4D_HD inline void jacobi_rotate_columns(T* B, T* V, int p, int q) {
+  using O = SvdOps<T>;
+  T app = O::splat(0.0), aqq = O::splat(0.0), apq = O::splat(0.0);
   for (int i = 0; i < 3; ++i) {
-    app += B(i, p) * B(i, p);
-    aqq += B(i, q) * B(i, q);
-    apq += B(i, p) * B(i, q);
+    app += B[3 * i + p] * B[3 * i + p];
+    aqq += B[3 * i + q] * B[3 * i + q];
+    apq += B[3 * i + p] * B[3 * i + q];
   }
-  const double tau = aqq - app;
-  const double denom = std::fabs(tau) + std::sqrt(tau * tau + 4.0 * apq * apq);
-  const double sign_tau = tau >= 0.0 ? 1.0 : -1.0;
-  const double t = denom > 0.0 ? 2.0 * apq * sign_tau / denom : 0.0;
-  const double c = 1.0 / std::sqrt(1.0 + t * t);
-  const double s = t * c;
+  const T tau = aqq - app;
+  const T denom = O::abs(tau) + O::sqrt(tau * tau + 4.0 * apq * apq);
+  const T sign_tau = O::select(tau >= O::splat(0.0), O::splat(1.0), O::splat(-1.0));
+  const T t = O::select(denom > O::splat(0.0), 2.0 * apq * sign_tau / denom, O::splat(0.0));
+  const T c = 1.0 / O::sqrt(1.0 + t * t);
+  const T s = t * c;
   for (int i = 0; i < 3; ++i) {
-    const double bp = B(i, p), bq = B(i, q);
-    B(i, p) = c * bp - s * bq;
-    B(i, q) = s * bp + c * bq;
-    const double vp = V(i, p), vq = V(i, q);
-    V(i, p) = c * vp - s * vq;
-    V(i, q) = s * vp + c * vq;
+    const T bp = B[3 * i + p], bq = B[3 * i + q];
+    B[3 * i + p] = c * bp - s * bq;
+    B[3 * i + q] = s * bp + c * bq;
+    const T vp = V[3 * i + p], vq = V[3 * i + q];
+    V[3 * i + p] = c * vp - s * vq;
+    V[3 * i + q] = s * vp + c * vq;
   }
 }
 
 //! `sweeps` cyclic one-sided Jacobi sweeps: B <- B V with V a rotation and B's columns orthogonal.
-GEN4D_HD inline void jacobi_orthogonalize(Mat3& B, Mat3& V, int sweeps) {
-  V = identity3();
+template <class T>
+GEN4D_HD inline void jacobi_orthogonalize(T* B, T* V, int sweeps) {
+  for (int i = 0; i < 9; ++i) V[i] = SvdOps<T>::splat(i % 4 == 0 ? 1.0 : 0.0);
   for (int k = 0; k < sweeps; ++k) {
     jacobi_rotate_columns(B, V, 0, 1);
     jacobi_rotate_columns(B, V, 0, 2);
     jacobi_rotate_columns(B, V, 1, 2);
   }
 }
+GEN4D_HD inline void jacobi_orthogonalize(Mat3& B, Mat3& V, int sweeps) {
+  jacobi_orthogonalize<double>(B.a, V.a, sweeps);
+}
 
 // When `swap`, columns (i, j) of B and V become (j, -i): a reordering with det V kept at +1.
-GEN4D_HD inline void swap_columns_if(bool swap, Mat3& B, Mat3& V, double* rho, int i, int j) {
+template <class T, class Mask>
+GEN4D_HD inline void swap_columns_if(Mask swap, T* B, T* V, T* rho, int i, int j) {
+  using O = SvdOps<T>;
   for (int row = 0; row < 3; ++row) {
-    const double bi = B(row, i), bj = B(row, j);
-    B(row, i) = swap ? bj : bi;
-    B(row, j) = swap ? -bi : bj;
-    const double vi = V(row, i), vj = V(row, j);
-    V(row, i) = swap ? vj : vi;
-    V(row, j) = swap ? -vi : vj;
+    const T bi = B[3 * row + i], bj = B[3 * row + j];
+    B[3 * row + i] = O::select(swap, bj, bi);
+    B[3 * row + j] = O::select(swap, -bi, bj);
+    const T vi = V[3 * row + i], vj = V[3 * row + j];
+    V[3 * row + i] = O::select(swap, vj, vi);
+    V[3 * row + j] = O::select(swap, -vi, vj);
   }
-  const double ri = rho[i], rj = rho[j];
-  rho[i] = swap ? rj : ri;
-  rho[j] = swap ? ri : rj;
+  const T ri = rho[i], rj = rho[j];
+  rho[i] = O::select(swap, rj, ri);
+  rho[j] = O::select(swap, ri, rj);
 }
 
 // Givens rotation on rows (p, q) of R that zeroes R(q, col) and leaves R(p, col) >= 0;
 // U accumulates the transposes so that U R stays constant. Below `tiny` (inputs are
 // normalised to max entry 1) the pair is numerically zero and the identity keeps U orthonormal
 // where squaring would underflow.
-GEN4D_HD inline void givens_qr_step(Mat3& R, Mat3& U, int p, int q, int col) {
-  constexpr double tiny = 1e-150;
-  const double a = R(p, col), b = R(q, col);
-  const double rho = std::sqrt(a * a + b * b);
-  const bool live = rho > tiny;
-  const double c = live ? a / rho : 1.0;
-  const double s = live ? b / rho : 0.0;
+template <class T>
+GEN4D_HD inline void givens_qr_step(T* R, T* U, int p, int q, int col) {
+  using O = SvdOps<T>;
+  const T a = R[3 * p + col], b = R[3 * q + col];
+  const T rho = O::sqrt(a * a + b * b);
+  const auto live = rho > O::splat(1e-150);
+  const T c = O::select(live, a / rho, O::splat(1.0));
+  const T s = O::select(live, b / rho, O::splat(0.0));
   for (int k = 0; k < 3; ++k) {
-    const double rp = R(p, k), rq = R(q, k);
-    R(p, k) = c * rp + s * rq;
-    R(q, k) = -s * rp + c * rq;
-    const double up = U(k, p), uq = U(k, q);
-    U(k, p) = c * up + s * uq;
-    U(k, q) = -s * up + c * uq;
+    const T rp = R[3 * p + k], rq = R[3 * q + k];
+    R[3 * p + k] = c * rp + s * rq;
+    R[3 * q + k] = -s * rp + c * rq;
+    const T up = U[3 * k + p], uq = U[3 * k + q];
+    U[3 * k + p] = c * up + s * uq;
+    U[3 * k + q] = -s * up + c * uq;
   }
+}
+
+//! Signed SVD F = U diag(sigma) V^T of one matrix per lane of T (see the file comment).
+template <class T>
+GEN4D_HD inline void svd3_generic(const T* F, T* U, T* sigma, T* V) {
+  using O = SvdOps<T>;
+  // Normalising by the largest entry makes the thresholds scale-free and keeps F^T F finite.
+  T scale = O::splat(0.0);
+  for (int i = 0; i < 9; ++i) scale = O::select(O::abs(F[i]) > scale, O::abs(F[i]), scale);
+  scale = O::select(scale > O::splat(0.0), scale, O::splat(1.0));
+  T B[9];
+  for (int i = 0; i < 9; ++i) B[i] = F[i] / scale;
+
+  jacobi_orthogonalize(B, V, kSvdJacobiSweeps);
+
+  T rho[3];
+  for (int c = 0; c < 3; ++c) rho[c] = B[c] * B[c] + B[3 + c] * B[3 + c] + B[6 + c] * B[6 + c];
+  swap_columns_if(rho[0] < rho[1], B, V, rho, 0, 1);
+  swap_columns_if(rho[0] < rho[2], B, V, rho, 0, 2);
+  swap_columns_if(rho[1] < rho[2], B, V, rho, 1, 2);
+
+  for (int i = 0; i < 9; ++i) U[i] = O::splat(i % 4 == 0 ? 1.0 : 0.0);
+  givens_qr_step(B, U, 0, 1, 0);
+  givens_qr_step(B, U, 0, 2, 0);
+  givens_qr_step(B, U, 1, 2, 1);
+
+  // B is now R = U^T F V: upper triangular with off-diagonals at rounding level, so its diagonal
+  // is sigma. Rounding can leave neighbours out of order by an ulp of sigma_0; raising the
+  // smaller one keeps the ordering exact at that same ulp-level cost.
+  const T s2 = B[8];
+  const T s1 = O::select(B[4] > O::abs(s2), B[4], O::abs(s2));
+  const T s0 = O::select(B[0] > s1, B[0], s1);
+  sigma[0] = s0 * scale;
+  sigma[1] = s1 * scale;
+  sigma[2] = s2 * scale;
 }
 
 }  // namespace detail
 
 //! Signed SVD F = U diag(sigma) V^T (see the file comment for the conventions).
 GEN4D_HD inline void svd3(const Mat3& F, Mat3& U, Vec3& sigma, Mat3& V) {
-  // Normalising by the largest entry makes the thresholds scale-free and keeps F^T F finite.
-  double scale = 0.0;
-  for (int i = 0; i < 9; ++i) scale = std::fabs(F.a[i]) > scale ? std::fabs(F.a[i]) : scale;
-  scale = scale > 0.0 ? scale : 1.0;
-  Mat3 Fn;
-  for (int i = 0; i < 9; ++i) Fn.a[i] = F.a[i] / scale;
-
-  Mat3 B = Fn;
-  detail::jacobi_orthogonalize(B, V, kSvdJacobiSweeps);
-
-  double rho[3];
-  for (int c = 0; c < 3; ++c) rho[c] = B(0, c) * B(0, c) + B(1, c) * B(1, c) + B(2, c) * B(2, c);
-  detail::swap_columns_if(rho[0] < rho[1], B, V, rho, 0, 1);
-  detail::swap_columns_if(rho[0] < rho[2], B, V, rho, 0, 2);
-  detail::swap_columns_if(rho[1] < rho[2], B, V, rho, 1, 2);
-
-  U = identity3();
-  detail::givens_qr_step(B, U, 0, 1, 0);
-  detail::givens_qr_step(B, U, 0, 2, 0);
-  detail::givens_qr_step(B, U, 1, 2, 1);
-
-  // B is now R = U^T F V: upper triangular with off-diagonals at rounding level, so its diagonal
-  // is sigma. Rounding can leave neighbours out of order by an ulp of sigma_0; raising the
-  // smaller one keeps the ordering exact at that same ulp-level cost.
-  const double s2 = B(2, 2);
-  const double s1 = B(1, 1) > std::fabs(s2) ? B(1, 1) : std::fabs(s2);
-  const double s0 = B(0, 0) > s1 ? B(0, 0) : s1;
-  sigma = Vec3{{s0 * scale, s1 * scale, s2 * scale}};
+  detail::svd3_generic<double>(F.a, U.a, sigma.v, V.a);
 }
 
 //! Rotation R = U V^T of the signed SVD: the closest proper rotation to F, also for det F < 0.
@@ -168,19 +201,10 @@ GEN4D_HD inline bool polar_rotation_newton(const Mat3& F, Mat3& R) {
   return false;
 }
 
-//! svd3 over n row-major 3x3 matrices stored back to back (9 doubles each, 3 per sigma).
-inline void svd3_batch(std::size_t n, const double* F, double* U, double* sigma, double* V) {
-  for (std::size_t i = 0; i < n; ++i) {
-    Mat3 f, u, v;
-    Vec3 s;
-    for (int k = 0; k < 9; ++k) f.a[k] = F[9 * i + k];
-    svd3(f, u, s, v);
-    for (int k = 0; k < 9; ++k) {
-      U[9 * i + k] = u.a[k];
-      V[9 * i + k] = v.a[k];
-    }
-    for (int k = 0; k < 3; ++k) sigma[3 * i + k] = s[k];
-  }
-}
+//! svd3 over n row-major 3x3 matrices stored back to back (9 doubles each, 3 per sigma),
+//! several matrices at a time in vector lanes (AVX2 where the CPU has it, else SSE2). Each
+//! result equals svd3's for that matrix in every bit (the lanes run svd3's operations, without
+//! fused multiply-adds), whatever its neighbours in the batch. Host only (Svd3Batch.cpp).
+void svd3_batch(std::size_t n, const double* F, double* U, double* sigma, double* V);
 
 }  // namespace gen4d::materials

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "core/ParallelFor.hpp"
+
 namespace gen4d::mpm {
 
 MaterialSet::MaterialSet(std::shared_ptr<const Material> only) {
@@ -63,8 +65,12 @@ void MaterialSet::for_runs(std::size_t n, const std::uint8_t* slot, Fn&& fn) con
 
 void MaterialSet::update(std::size_t n, const std::uint8_t* slot, double* F, double* state,
                          double* tau, double dt) const {
+  // Each run in blocks, one per host thread (the models' update is const and per particle).
   for_runs(n, slot, [&](const Material& m, std::size_t i, std::size_t count) {
-    m.update(count, F + 9 * i, state + kStateSize * i, tau + 9 * i, dt);
+    exec::parallel_blocks(static_cast<long>(count), [&](long b, long e) {
+      const std::size_t j = i + static_cast<std::size_t>(b);
+      m.update(static_cast<std::size_t>(e - b), F + 9 * j, state + kStateSize * j, tau + 9 * j, dt);
+    });
   });
 }
 
@@ -80,7 +86,10 @@ double MaterialSet::state_wave_speed(std::size_t n, const std::uint8_t* slot,
 void MaterialSet::stress(std::size_t n, const std::uint8_t* slot, const double* F,
                          const double* state, double* tau) const {
   for_runs(n, slot, [&](const Material& m, std::size_t i, std::size_t count) {
-    m.stress(count, F + 9 * i, state + kStateSize * i, tau + 9 * i);
+    exec::parallel_blocks(static_cast<long>(count), [&](long b, long e) {
+      const std::size_t j = i + static_cast<std::size_t>(b);
+      m.stress(static_cast<std::size_t>(e - b), F + 9 * j, state + kStateSize * j, tau + 9 * j);
+    });
   });
 }
 

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "mpm/Kernels.hpp"
 #include "mpm/Material.hpp"
 
 namespace gen4d::mpm {
@@ -55,16 +56,7 @@ struct Particles {
   void sort_by_id();
 };
 
-//! F <- (I + dt C) F for row-major 3x3 C and F: the MLS-MPM update of a deformation gradient by
-//! the velocity gradient of one substep (one order of operations for every F it updates).
-inline void advance_deformation(const double* C, double dt, double* F) {
-  double G[9];
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c)
-      G[3 * r + c] = F[3 * r + c] +
-                     dt * (C[3 * r + 0] * F[c] + C[3 * r + 1] * F[3 + c] + C[3 * r + 2] * F[6 + c]);
-  for (int k = 0; k < 9; ++k) F[k] = G[k];
-}
+using kernels::advance_deformation;
 
 //! Sends every particle i, every attribute and `extra` included, to rank owner(i)
 //! (parallel::RowExchange); afterwards each rank holds the particles it owns, received ones

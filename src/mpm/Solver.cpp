@@ -6,18 +6,16 @@
 #include <cmath>
 #include <limits>
 
+#include "core/Device.hpp"
+#include "core/ParallelFor.hpp"
+#include "mpm/Kernels.hpp"
 #include "parallel/Reduce.hpp"
 
 namespace gen4d::mpm {
 
-namespace {
+using kernels::dot3;
 
-// Adding and subtracting 1.5 * 2^52 rounds a double of magnitude below 2^51 to the nearest
-// integer (ties to even) in the default rounding mode; cheaper than std::nearbyint.
-constexpr double kRound = 6755399441055744.0;
-inline double round_int(double c) {
-  return (c + kRound) - kRound;
-}
+namespace {
 
 // Contributions are at most 2^kQuantumBits quanta, so 2^(53 - kQuantumBits) of them can meet
 // at one node before a sum could lose exactness.
@@ -29,48 +27,8 @@ double inverse_quantum(double bound) {
   return std::ldexp(1.0, kQuantumBits - std::ilogb(bound) - 1);
 }
 
-//! Quadratic B-spline stencil of a particle: the first of its 3x3x3 nodes relative to the
-//! ghosted box, the particle's offset from it in cells (fx in [0.5, 1.5)) and the weights.
-struct Stencil {
-  long base[3];
-  double fx[3], w[3][3];
-
-  Stencil(const double* xp, const GridSpec& g, const parallel::Box& box) {
-    for (int a = 0; a < 3; ++a) {
-      const double X = (xp[a] - g.lo[a]) / g.dx;
-      const long b = static_cast<long>(std::floor(X - 0.5));
-      const double f = X - static_cast<double>(b);
-      fx[a] = f;
-      w[a][0] = 0.5 * (1.5 - f) * (1.5 - f);
-      w[a][1] = 0.75 - (f - 1.0) * (f - 1.0);
-      w[a][2] = 0.5 * (f - 0.5) * (f - 0.5);
-      base[a] = b - box.start[a];
-    }
-  }
-};
-
 inline bool active(const BoundaryConfig& b, double t) {
   return t >= b.start && t < b.end;
-}
-
-inline double dot3(const double* a, const double* b) {
-  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
-//! The affine matrix P2G transfers: C blended towards its skew part by r (RPIC damping), or
-//! zero for r < 0 (PIC).
-inline void transfer_affine(const double* C, double r, double* out) {
-  if (r == 0) {
-    std::copy_n(C, 9, out);
-    return;
-  }
-  if (r < 0) {
-    std::fill_n(out, 9, 0.0);
-    return;
-  }
-  for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b)
-      out[3 * a + b] = (1 - r) * C[3 * a + b] + 0.5 * r * (C[3 * a + b] - C[3 * b + a]);
 }
 
 }  // namespace
@@ -93,6 +51,14 @@ Solver::Solver(MPI_Comm comm, const GridSpec& grid, MaterialSet materials,
 }
 
 Solver::~Solver() = default;
+
+bool Solver::on_device() const {
+#if defined(GEN4D_CUDA)
+  return device_ != nullptr;
+#else
+  return false;
+#endif
+}
 
 int Solver::owner_of(const double* x) const {
   long n[3];
@@ -139,11 +105,12 @@ void Solver::distribute(Particles local) {
     for (int s = 0; s < m; ++s) ownership[a].push_back(cuts[s + 1] - cuts[s]);
   }
   grid_ = std::make_unique<parallel::NodeGrid>(comm_, nodes, ownership);
-  halo1_ = std::make_unique<parallel::Halo>(*grid_, 1);
-  halo3_ = std::make_unique<parallel::Halo>(*grid_, 3);
+  halo4_ = std::make_unique<parallel::Halo>(*grid_, 4);
   const std::size_t ng = static_cast<std::size_t>(grid_->ghosted_nodes().size());
-  mass_.assign(ng, 0.0);
-  mom_.assign(3 * ng, 0.0);
+  pm_.assign(4 * ng, 0.0);
+#if defined(GEN4D_CUDA)
+  if (opt_.allow_device && exec::use_device() && !device_) device_ = device::make_workspace();
+#endif
   vel_.assign(3 * ng, 0.0);
 
   // Ranges of the sequential-release conditions over the initial particles.
@@ -184,11 +151,11 @@ double Solver::stable_dt(double limit) const {
   double dt = std::min(limit, opt_.max_dt);
   if (!opt_.adaptive) return dt;
   // The fastest particle and the fastest elastic wave of the particles' current state.
-  double most[2] = {0, materials_.state_wave_speed(p_.size(), p_.material.data(), p_.state.data())};
-  for (std::size_t i = 0; i < p_.size(); ++i) {
-    const double* v = &p_.v[3 * i];
-    most[0] = std::max(most[0], v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-  }
+  const double* vel = p_.v.data();
+  double most[2] = {
+      exec::parallel_reduce_max(static_cast<long>(p_.size()), 0.0,
+                                [&](long i) { return dot3(&vel[3 * i], &vel[3 * i]); }),
+      materials_.state_wave_speed(p_.size(), p_.material.data(), p_.state.data())};
   MPI_Allreduce(MPI_IN_PLACE, most, 2, MPI_DOUBLE, MPI_MAX, comm_);
   const double vmax = std::sqrt(most[0]), c = most[1];
   if (vmax > 0) dt = std::min(dt, opt_.cfl * spec_.dx / vmax);
@@ -207,8 +174,7 @@ void Solver::substep(double t, double dt) {
   }
   {
     PhaseTimers::Scope s(timers_, "halo");
-    halo1_->scatter_add(mass_.data());
-    halo3_->scatter_add(mom_.data());
+    halo4_->scatter_add(pm_.data());
   }
   {
     PhaseTimers::Scope s(timers_, "grid");
@@ -236,71 +202,85 @@ void Solver::update_stress(double dt) {
 }
 
 void Solver::p2g(double dt) {
-  const std::size_t n = p_.size();
-  const double dx = spec_.dx, inv_dx = 1.0 / dx;
-  const double stress_scale = -dt * 4.0 * inv_dx * inv_dx;
-  // Quanta from the global largest contributions.
-  const double rpic = opt_.rpic_damping;
-  double bound[2] = {0, 0};
-  for (std::size_t i = 0; i < n; ++i) {
-    const double m = p_.mass[i];
-    bound[0] = std::max(bound[0], m);
-    double mv = 0, a = 0, C[9];
-    transfer_affine(&p_.C[9 * i], rpic, C);
-    for (int d = 0; d < 3; ++d) mv = std::max(mv, std::abs(p_.v[3 * i + d]));
-    for (int k = 0; k < 9; ++k)
-      a = std::max(a, std::abs(stress_scale * p_.vol0[i] * tau_[9 * i + k]) + std::abs(m * C[k]));
-    bound[1] = std::max(bound[1], m * mv + 3 * a * 1.5 * dx);
-  }
-  MPI_Allreduce(MPI_IN_PLACE, bound, 2, MPI_DOUBLE, MPI_MAX, comm_);
-  const double inv_qm = inverse_quantum(bound[0]), inv_qp = inverse_quantum(bound[1]);
-  quantum_mass_ = 1.0 / inv_qm;
-  quantum_mom_ = 1.0 / inv_qp;
-
-  std::fill(mass_.begin(), mass_.end(), 0.0);
-  std::fill(mom_.begin(), mom_.end(), 0.0);
+  const long n = static_cast<long>(p_.size());
   const parallel::Box& gb = grid_->ghosted_nodes();
-  const long gx = gb.count[0], gy = gb.count[1];
-  for (std::size_t i = 0; i < n; ++i) {
-    if (p_.flag[i] & 1) continue;
-    const Stencil st(&p_.x[3 * i], spec_, gb);
-    const long* base = st.base;
-    const double* fx = st.fx;
-    const auto& w = st.w;
-    const double m = p_.mass[i];
-    const double s = stress_scale * p_.vol0[i];
-    double A[9], mv[3], C[9];
-    transfer_affine(&p_.C[9 * i], rpic, C);
-    for (int k = 0; k < 9; ++k) A[k] = s * tau_[9 * i + k] + m * C[k];
-    for (int d = 0; d < 3; ++d) mv[d] = m * p_.v[3 * i + d];
-    for (int c = 0; c < 3; ++c) {
-      const double dz = (c - fx[2]) * dx;
-      for (int b = 0; b < 3; ++b) {
-        const double dy = (b - fx[1]) * dx;
-        const double wzy = w[2][c] * w[1][b];
-        const long row = ((base[2] + c) * gy + (base[1] + b)) * gx + base[0];
-        // Affine momentum at this row: mv + A (dpos), dpos = (dx0, dy, dz).
-        double r[3];
-        for (int d = 0; d < 3; ++d) r[d] = mv[d] + A[3 * d + 1] * dy + A[3 * d + 2] * dz;
-        for (int a = 0; a < 3; ++a) {
-          const double dxa = (a - fx[0]) * dx;
-          const double weight = wzy * w[0][a];
-          const std::size_t idx = static_cast<std::size_t>(row + a);
-          mass_[idx] += round_int(weight * m * inv_qm);
-          double* P = &mom_[3 * idx];
-          P[0] += round_int(weight * (r[0] + A[0] * dxa) * inv_qp);
-          P[1] += round_int(weight * (r[1] + A[3] * dxa) * inv_qp);
-          P[2] += round_int(weight * (r[2] + A[6] * dxa) * inv_qp);
-        }
-      }
-    }
+  kernels::P2GArgs a{};
+  a.x = p_.x.data();
+  a.v = p_.v.data();
+  a.C = p_.C.data();
+  a.tau = tau_.data();
+  a.mass = p_.mass.data();
+  a.vol0 = p_.vol0.data();
+  a.flag = p_.flag.data();
+  for (int d = 0; d < 3; ++d) {
+    a.lo[d] = spec_.lo[d];
+    a.start[d] = gb.start[d];
   }
+  a.dx = spec_.dx;
+  const double inv_dx = 1.0 / spec_.dx;
+  a.stress_scale = -dt * 4.0 * inv_dx * inv_dx;
+  a.rpic = opt_.rpic_damping;
+  a.gx = gb.count[0];
+  a.gy = gb.count[1];
+  // Quanta from the global largest contributions.
+  double bound[2] = {exec::parallel_reduce_max(n, 0.0, [&](long i) { return a.mass[i]; }),
+                     exec::parallel_reduce_max(n, 0.0, [&](long i) {
+                       double b[2];
+                       kernels::p2g_bound(a, i, b);
+                       return b[1];
+                     })};
+  MPI_Allreduce(MPI_IN_PLACE, bound, 2, MPI_DOUBLE, MPI_MAX, comm_);
+  a.inv_qm = inverse_quantum(bound[0]);
+  a.inv_qp = inverse_quantum(bound[1]);
+  quantum_mass_ = 1.0 / a.inv_qm;
+  quantum_mom_ = 1.0 / a.inv_qp;
+
+  double* grid = pm_.data();
+  exec::parallel_for(static_cast<long>(pm_.size()), [&](long k) { grid[k] = 0.0; });
+#if defined(GEN4D_CUDA)
+  if (device_) {
+    device::p2g(*device_, a, n, grid, static_cast<long>(gb.size()));
+    return;
+  }
+#endif
+  const auto plain_add = [](double* g, const double* q) {
+    GEN4D_SIMD
+    for (int k = 0; k < 12; ++k) g[k] += q[k];
+  };
+  if (exec::host_threads() == 1 || n < exec::kSerialBelow) {
+    for (long i = 0; i < n; ++i) kernels::p2g_particle(a, i, grid, plain_add);
+    return;
+  }
+  // Threads scatter slabs of base cells along z, two cells thick: slabs 2 apart touch disjoint
+  // nodes, so the even slabs run side by side, then the odd ones, with plain additions.
+  constexpr long kSlab = 2;
+  const long slabs = (gb.count[2] + kSlab - 1) / kSlab;
+  slab_start_.assign(static_cast<std::size_t>(slabs) + 1, 0);
+  slab_of_.resize(static_cast<std::size_t>(n));
+  for (long i = 0; i < n; ++i) {
+    const double X = (a.x[3 * i + 2] - a.lo[2]) / a.dx;
+    const long base = static_cast<long>(std::floor(X - 0.5)) - a.start[2];
+    const long s = std::clamp(base / kSlab, 0L, slabs - 1);
+    slab_of_[static_cast<std::size_t>(i)] = static_cast<std::int32_t>(s);
+    ++slab_start_[static_cast<std::size_t>(s) + 1];
+  }
+  for (long s = 0; s < slabs; ++s) slab_start_[s + 1] += slab_start_[s];
+  order_.resize(static_cast<std::size_t>(n));
+  {
+    std::vector<long> fill(slab_start_.begin(), slab_start_.end() - 1);
+    for (long i = 0; i < n; ++i) order_[static_cast<std::size_t>(fill[slab_of_[i]]++)] = i;
+  }
+  for (long parity = 0; parity < 2; ++parity)
+    exec::parallel_for_dynamic((slabs - parity + 1) / 2, [&](long k) {
+      const long s = parity + 2 * k;
+      for (long q = slab_start_[s]; q < slab_start_[s + 1]; ++q)
+        kernels::p2g_particle(a, order_[static_cast<std::size_t>(q)], grid, plain_add);
+    });
 }
 
 void Solver::grid_update(double t, double dt) {
   const parallel::Box& gb = grid_->ghosted_nodes();
   const auto nodes = spec_.nodes();
-  const int L = opt_.boundary_layers;
   bool walls = true;
   bool has_box_entry = false;
   for (const auto& b : bcs_)
@@ -309,141 +289,118 @@ void Solver::grid_update(double t, double dt) {
       walls = active(b, t);
     }
   if (!has_box_entry) walls = true;
-  const double* g = opt_.gravity.data();
-  const double damp = opt_.damping > 0 ? 1.0 / (1.0 + opt_.damping * dt) : 1.0;
-  const double scale_v = opt_.grid_velocity_scale;
-  // Cuboid boxes at time t, and whether each one's reset window holds t.
-  std::vector<BoxRegion> boxes(bcs_.size());
-  std::vector<char> resetting(bcs_.size(), 0);
-  for (std::size_t b = 0; b < bcs_.size(); ++b) {
-    if (bcs_[b].type != "cuboid") continue;
-    boxes[b] = cuboid_region(bcs_[b], t);
-    resetting[b] = t >= bcs_[b].end && t < bcs_[b].end + bcs_[b].reset_duration;
-  }
-  for (long k = 0; k < gb.count[2]; ++k)
-    for (long j = 0; j < gb.count[1]; ++j)
-      for (long i = 0; i < gb.count[0]; ++i) {
-        const std::size_t n = static_cast<std::size_t>((k * gb.count[1] + j) * gb.count[0] + i);
-        double* v = &vel_[3 * n];
-        const double m = mass_[n] * quantum_mass_;
-        if (!(m > 0)) {
-          v[0] = v[1] = v[2] = 0;
-          continue;
-        }
-        const double inv_m = quantum_mom_ / m;
-        for (int d = 0; d < 3; ++d) v[d] = mom_[3 * n + d] * inv_m + dt * g[d];
-        if (scale_v != 1)
-          for (int d = 0; d < 3; ++d) v[d] *= scale_v;
-        if (damp != 1)
-          for (int d = 0; d < 3; ++d) v[d] *= damp;
-        const long idx[3] = {gb.start[0] + i, gb.start[1] + j, gb.start[2] + k};
-        const double xi[3] = {spec_.lo[0] + idx[0] * spec_.dx, spec_.lo[1] + idx[1] * spec_.dx,
-                              spec_.lo[2] + idx[2] * spec_.dx};
-        for (std::size_t b = 0; b < bcs_.size(); ++b) {
-          const BoundaryConfig& bc = bcs_[b];
-          if (resetting[b]) {
-            v[0] = v[1] = v[2] = 0;
-            continue;
-          }
-          if (!active(bc, t)) continue;
-          if (bc.type == "cuboid") {
-            if (boxes[b].contains({xi[0], xi[1], xi[2]}))
-              for (int d = 0; d < 3; ++d) v[d] = bc.velocity[d];
-          } else if (bc.type == "surface_collider") {
-            const double* nrm = bc.normal.data();
-            const double dist = (xi[0] - bc.point[0]) * nrm[0] + (xi[1] - bc.point[1]) * nrm[1] +
-                                (xi[2] - bc.point[2]) * nrm[2];
-            if (dist > 0 && !(dist < bc.soft_width)) continue;
-            // Blend weight of a soft collider's outer band (1 on and inside the plane).
-            const double wb = dist > 0 ? 1.0 - dist / bc.soft_width : 1.0;
-            if (bc.surface == "sticky") {
-              for (int d = 0; d < 3; ++d) v[d] -= wb * v[d];
-              continue;
-            }
-            const double vn = dot3(v, nrm);
-            if (bc.surface == "cut") {
-              // Inside the cut: no normal velocity, cut_scale of the rest; elsewhere: stop.
-              const bool in_cut = bc.region.contains({xi[0], xi[1], xi[2]});
-              for (int d = 0; d < 3; ++d) {
-                const double target = in_cut ? bc.cut_scale * (v[d] - vn * nrm[d]) : 0.0;
-                v[d] = wb == 1.0 ? target : v[d] + wb * (target - v[d]);
-              }
-              continue;
-            }
-            if (bc.surface == "separate" && vn >= 0) continue;
-            double vt[3];
-            for (int d = 0; d < 3; ++d) vt[d] = v[d] - vn * nrm[d];
-            const double vtn = std::sqrt(dot3(vt, vt));
-            // Coulomb: the tangential speed drops by friction times the normal speed removed.
-            const double scale =
-                vtn > 0 ? std::max(0.0, 1.0 - bc.friction * std::abs(vn) / vtn) : 0.0;
-            if (wb == 1.0)
-              for (int d = 0; d < 3; ++d) v[d] = vt[d] * scale;
-            else
-              for (int d = 0; d < 3; ++d) v[d] += wb * (vt[d] * scale - v[d]);
-          }
-        }
-        if (walls)
-          for (int d = 0; d < 3; ++d) {
-            if (idx[d] < L && v[d] < 0) v[d] = 0;
-            if (idx[d] > nodes[d] - 1 - L && v[d] > 0) v[d] = 0;
-          }
+  // The conditions acting at t, in deck order, as kernel records.
+  grid_conditions_.clear();
+  for (const auto& bc : bcs_) {
+    kernels::GridCondition c{};
+    const bool resetting = bc.type == "cuboid" && t >= bc.end && t < bc.end + bc.reset_duration;
+    if (resetting) {
+      c.kind = kernels::GridCondition::kReset;
+      grid_conditions_.push_back(c);
+      continue;
+    }
+    if (!active(bc, t)) continue;
+    if (bc.type == "cuboid") {
+      c.kind = kernels::GridCondition::kCuboid;
+      const BoxRegion box = cuboid_region(bc, t);
+      for (int d = 0; d < 3; ++d) {
+        c.lo[d] = box.lo[d];
+        c.hi[d] = box.hi[d];
+        c.velocity[d] = bc.velocity[d];
       }
+    } else if (bc.type == "surface_collider") {
+      c.kind = bc.surface == "sticky"     ? kernels::GridCondition::kSticky
+               : bc.surface == "cut"      ? kernels::GridCondition::kCut
+               : bc.surface == "separate" ? kernels::GridCondition::kSeparate
+                                          : kernels::GridCondition::kSlip;
+      for (int d = 0; d < 3; ++d) {
+        c.lo[d] = bc.region.lo[d];
+        c.hi[d] = bc.region.hi[d];
+        c.point[d] = bc.point[d];
+        c.normal[d] = bc.normal[d];
+      }
+      c.friction = bc.friction;
+      c.soft_width = bc.soft_width;
+      c.cut_scale = bc.cut_scale;
+    } else {
+      continue;  // particle conditions act in G2P
+    }
+    grid_conditions_.push_back(c);
+  }
+  kernels::GridArgs a{};
+  a.pm = pm_.data();
+  a.vel = vel_.data();
+  a.qm = quantum_mass_;
+  a.qp = quantum_mom_;
+  for (int d = 0; d < 3; ++d) {
+    a.gravity[d] = opt_.gravity[d];
+    a.lo[d] = spec_.lo[d];
+    a.start[d] = gb.start[d];
+    a.count[d] = gb.count[d];
+    a.nodes[d] = nodes[d];
+  }
+  a.dt = dt;
+  a.damp = opt_.damping > 0 ? 1.0 / (1.0 + opt_.damping * dt) : 1.0;
+  a.scale_v = opt_.grid_velocity_scale;
+  a.dx = spec_.dx;
+  a.wall_layers = walls ? opt_.boundary_layers : -1;
+  a.cond = grid_conditions_.data();
+  a.ncond = static_cast<int>(grid_conditions_.size());
+#if defined(GEN4D_CUDA)
+  if (device_) {
+    device::grid_update(*device_, a, static_cast<long>(gb.size()));
+    return;
+  }
+#endif
+  exec::parallel_for(static_cast<long>(gb.size()), [&](long k) { kernels::grid_node(a, k); });
 }
 
 void Solver::g2p(double t, double dt) {
-  const std::size_t n = p_.size();
-  const double dx = spec_.dx, inv_dx = 1.0 / dx;
+  const long n = static_cast<long>(p_.size());
   const parallel::Box& gb = grid_->ghosted_nodes();
-  const long gx = gb.count[0], gy = gb.count[1];
-  bool any_release = false;
-  for (const auto& b : bcs_) any_release |= b.type == "release_particles_sequentially";
-  for (std::size_t i = 0; i < n; ++i) {
-    if (any_release) {
-      if (frozen(i, t + dt)) {
+  bool any_release = false, particle_bcs = false;
+  for (const auto& b : bcs_) {
+    any_release |= b.type == "release_particles_sequentially";
+    particle_bcs |=
+        active(b, t) && (b.type == "particle_impulse" || b.type == "enforce_particle_translation" ||
+                         b.type == "enforce_particle_velocity_rotation");
+  }
+  if (any_release)
+    exec::parallel_for(n, [&](long i) {
+      if (frozen(static_cast<std::size_t>(i), t + dt))
         p_.flag[i] |= 1;
-        continue;
-      }
-      p_.flag[i] &= static_cast<std::uint8_t>(~1u);
-    }
-    if (p_.flag[i] & 1) continue;
-    const Stencil st(&p_.x[3 * i], spec_, gb);
-    const long* base = st.base;
-    const double* fx = st.fx;
-    const auto& w = st.w;
-    double vn[3] = {0, 0, 0}, B[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
-    for (int c = 0; c < 3; ++c) {
-      const double dz = (c - fx[2]) * dx;
-      for (int b = 0; b < 3; ++b) {
-        const double dy = (b - fx[1]) * dx;
-        const double wzy = w[2][c] * w[1][b];
-        const long row = ((base[2] + c) * gy + (base[1] + b)) * gx + base[0];
-        for (int a = 0; a < 3; ++a) {
-          const double dxa = (a - fx[0]) * dx;
-          const double weight = wzy * w[0][a];
-          const double* vi = &vel_[3 * static_cast<std::size_t>(row + a)];
-          for (int d = 0; d < 3; ++d) {
-            const double wv = weight * vi[d];
-            vn[d] += wv;
-            B[3 * d + 0] += wv * dxa;
-            B[3 * d + 1] += wv * dy;
-            B[3 * d + 2] += wv * dz;
-          }
-        }
-      }
-    }
-    const double cs = 4.0 * inv_dx * inv_dx;
-    for (int k = 0; k < 9; ++k) p_.C[9 * i + k] = cs * B[k];
-    for (int d = 0; d < 3; ++d) p_.v[3 * i + d] = vn[d];
+      else
+        p_.flag[i] &= static_cast<std::uint8_t>(~1u);
+    });
+  kernels::G2PArgs a{};
+  a.x = p_.x.data();
+  a.v = p_.v.data();
+  a.C = p_.C.data();
+  a.F = p_.F.data();
+  a.flag = p_.flag.data();
+  a.vel = vel_.data();
+  for (int d = 0; d < 3; ++d) {
+    a.lo[d] = spec_.lo[d];
+    a.start[d] = gb.start[d];
   }
+  a.dx = spec_.dx;
+  a.dt = dt;
+  a.gx = gb.count[0];
+  a.gy = gb.count[1];
+  a.advance = !particle_bcs;
+#if defined(GEN4D_CUDA)
+  if (device_)
+    device::g2p(*device_, a, n, static_cast<long>(gb.size()));
+  else
+#endif
+    exec::parallel_for(n, [&](long i) { kernels::g2p_particle(a, i); });
+  if (a.advance) return;
   particle_conditions(t, dt);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (p_.flag[i] & 1) continue;
-    double* xp = &p_.x[3 * i];
-    const double* v = &p_.v[3 * i];
-    for (int d = 0; d < 3; ++d) xp[d] += dt * v[d];
-    advance_deformation(&p_.C[9 * i], dt, &p_.F[9 * i]);
-  }
+  exec::parallel_for(n, [&](long i) {
+    if (p_.flag[i] & 1) return;
+    for (int d = 0; d < 3; ++d) a.x[3 * i + d] += dt * a.v[3 * i + d];
+    kernels::advance_deformation(&a.C[9 * i], dt, &a.F[9 * i]);
+  });
 }
 
 void Solver::particle_conditions(double t, double dt) {
@@ -491,56 +448,41 @@ void Solver::particle_conditions(double t, double dt) {
 }
 
 void Solver::check_and_confine(double t, double dt) {
-  const std::size_t n = p_.size();
+  const long n = static_cast<long>(p_.size());
   const auto nodes = spec_.nodes();
-  const double limit = opt_.max_cells_per_substep * spec_.dx;
-  // Unstable particles: up to 3 reported per rank.
-  long long bad = 0;
-  std::vector<double> report;  // id, x, y, z, speed
-  std::vector<std::uint8_t> keep;
-  long long removed = 0, clamped = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    double* x = &p_.x[3 * i];
-    double* v = &p_.v[3 * i];
-    bool finite = true;
-    for (int d = 0; d < 3; ++d) finite &= std::isfinite(x[d]) && std::isfinite(v[d]);
-    for (int k = 0; k < 9; ++k) finite &= std::isfinite(p_.F[9 * i + k]);
-    const double speed = std::sqrt(dot3(v, v));
-    if (!finite || speed * dt > limit) {
-      if (bad++ < 3)
-        report.insert(report.end(), {static_cast<double>(p_.id[i]), x[0], x[1], x[2], speed});
-      continue;
-    }
-    bool outside = false;
-    for (int a = 0; a < 3; ++a) {
-      const double X = (x[a] - spec_.lo[a]) / spec_.dx;
-      const double hi = static_cast<double>(nodes[a] - 2);
-      if (X < 1.0 || X >= hi) outside = true;
-    }
-    if (!outside) continue;
-    if (opt_.remove_outside) {
-      if (keep.empty()) keep.assign(n, 1);
-      keep[i] = 0;
-      ++removed;
-    } else {
-      ++clamped;
-      for (int a = 0; a < 3; ++a) {
-        const double X = (x[a] - spec_.lo[a]) / spec_.dx;
-        const double hi = static_cast<double>(nodes[a] - 2) - 1e-6;
-        if (X < 1.0) {
-          x[a] = spec_.lo[a] + spec_.dx;
-          v[a] = std::max(v[a], 0.0);
-        } else if (X >= hi) {
-          x[a] = spec_.lo[a] + hi * spec_.dx;
-          v[a] = std::min(v[a], 0.0);
-        }
-      }
-    }
+  kernels::GuardArgs a{};
+  a.x = p_.x.data();
+  a.v = p_.v.data();
+  a.F = p_.F.data();
+  for (int d = 0; d < 3; ++d) {
+    a.lo[d] = spec_.lo[d];
+    a.nodes[d] = nodes[d];
+  }
+  a.dx = spec_.dx;
+  a.dt = dt;
+  a.limit = opt_.max_cells_per_substep * spec_.dx;
+  a.remove_outside = opt_.remove_outside;
+  status_.resize(static_cast<std::size_t>(n));
+  std::uint8_t* status = status_.data();
+  exec::parallel_for(n, [&](long i) { status[i] = kernels::guard_particle(a, i); });
+  long long bad = 0, removed = 0, clamped = 0;
+  for (long i = 0; i < n; ++i) {
+    bad += status[i] == kernels::kUnstable;
+    removed += status[i] == kernels::kRemove;
+    clamped += status[i] == kernels::kClamped;
   }
   long long counts[3] = {bad, removed, clamped};
   MPI_Allreduce(MPI_IN_PLACE, counts, 3, MPI_LONG_LONG, MPI_SUM, comm_);
   if (counts[0] > 0) {
-    // Every rank learns the reported particles, so every rank throws the same message.
+    // Up to 3 unstable particles per rank (id, x, y, z, speed); every rank learns them all, so
+    // every rank throws the same message.
+    std::vector<double> report;
+    for (long i = 0; i < n && report.size() < 15; ++i)
+      if (status[i] == kernels::kUnstable) {
+        const double* x = &p_.x[3 * i];
+        report.insert(report.end(), {static_cast<double>(p_.id[i]), x[0], x[1], x[2],
+                                     std::sqrt(dot3(&p_.v[3 * i], &p_.v[3 * i]))});
+      }
     report.resize(15, std::numeric_limits<double>::quiet_NaN());
     if (bad < 3)
       for (long long k = bad; k < 3; ++k) report[5 * k] = -1;
@@ -561,7 +503,11 @@ void Solver::check_and_confine(double t, double dt) {
         "\"adaptive\" with a smaller mpm.cfl / mpm.wave_cfl",
         t + dt, dt, counts[0], opt_.max_cells_per_substep, where));
   }
-  if (!keep.empty()) p_.compact(keep);
+  if (removed > 0) {
+    std::vector<std::uint8_t> keep(static_cast<std::size_t>(n));
+    for (long i = 0; i < n; ++i) keep[i] = status[i] != kernels::kRemove;
+    p_.compact(keep);
+  }
   removed_total_ += counts[1];
   clamped_total_ += counts[2];
 }

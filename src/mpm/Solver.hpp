@@ -27,6 +27,8 @@
 #include "core/Config.hpp"
 #include "core/Error.hpp"
 #include "core/Timers.hpp"
+#include "mpm/DeviceSubstep.hpp"
+#include "mpm/Kernels.hpp"
 #include "mpm/Material.hpp"
 #include "mpm/MaterialSet.hpp"
 #include "mpm/Particles.hpp"
@@ -66,6 +68,9 @@ struct SolverOptions {
   //! a Prony term, stiffness-proportional damping). It must act per particle (by id) for the
   //! results to stay independent of the rank count.
   std::function<void(const Particles&, double* tau, double dt)> stress_hook;
+  //! In a CUDA build, run P2G, the grid update and G2P on this rank's GPU when it has one
+  //! (core/Device.hpp); false: always the host.
+  bool allow_device = true;
 };
 
 //! A `surface_collider` boundary condition (the plane through `point` with `normal` towards the
@@ -122,6 +127,8 @@ class Solver {
   const parallel::NodeGrid& grid() const { return *grid_; }
   const MaterialSet& materials() const { return materials_; }
   const Material& material() const { return materials_[0]; }  //!< slot 0
+  //! Whether P2G, the grid update and G2P run on a GPU (known after distribute()).
+  bool on_device() const;
   PhaseTimers& timers() { return timers_; }
   const PhaseTimers& timers() const { return timers_; }
 
@@ -160,9 +167,18 @@ class Solver {
   std::vector<BoundaryConfig> bcs_;
   Particles p_;
   std::unique_ptr<parallel::NodeGrid> grid_;
-  std::unique_ptr<parallel::Halo> halo1_, halo3_;
-  std::vector<double> mass_, mom_, vel_;  // ghosted box: 1, 3, 3 per node
-  std::vector<double> tau_;               // per particle Kirchhoff stress (9)
+  std::unique_ptr<parallel::Halo> halo4_;
+  std::vector<double> pm_;   // ghosted box, 4 per node: mass, momentum (in quanta)
+  std::vector<double> vel_;  // ghosted box, 3 per node
+  // Host P2G's slab colouring: each particle's slab, the particles by slab, slab offsets.
+  std::vector<std::int32_t> slab_of_;
+  std::vector<long> order_, slab_start_;
+  std::vector<std::uint8_t> status_;                     // guard, per particle
+  std::vector<kernels::GridCondition> grid_conditions_;  // of the substep at hand
+#if defined(GEN4D_CUDA)
+  device::WorkspacePtr device_;  // set when the kernels run on this rank's GPU
+#endif
+  std::vector<double> tau_;  // per particle Kirchhoff stress (9)
   double quantum_mass_ = 1, quantum_mom_ = 1;
   // release_particles_sequentially: projection range of the initial particles on its normal
   std::vector<std::array<double, 2>> release_range_;

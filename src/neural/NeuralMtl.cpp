@@ -1,22 +1,31 @@
+// Values of the CPU lane type only pass between always-inlined functions, so no call passes one
+// in an instruction-set dependent register (what GCC's -Wpsabi note is about).
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wpsabi"
+#endif
 #include "neural/NeuralMtl.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "core/Error.hpp"
 #include "materials/FixedCorotated.hpp"
 #include "materials/NeoHookean.hpp"
 #include "materials/StVK.hpp"
 #include "materials/Svd3.hpp"
+#include "core/ParallelFor.hpp"
 #include "neural/ArrayFile.hpp"
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define GEN4D_KERNEL_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#define GEN4D_NEURAL_ISAS 1
 #else
-#define GEN4D_KERNEL_CLONES
+#define GEN4D_NEURAL_ISAS 0
 #endif
 
 namespace gen4d::neural {
@@ -34,45 +43,6 @@ double principal(const M& m, const double sigma[3], double grad[3]) {
   if (grad)
     for (int a = 0; a < 3; ++a) grad[a] = P.a[4 * a];
   return psi;
-}
-
-// exp for the tanh below, written so that a loop over lanes vectorises (no library call,
-// no branches): x = n ln2 + r with |r| <= ln2/2, e^r by its degree-12 Taylor polynomial
-// (truncation < 2e-16 relative), 2^n assembled in the exponent bits. Valid for |x| <= 700.
-inline double exp_lane(double x) {
-  constexpr double kShift = 6755399441055744.0;  // 1.5 * 2^52: adding it rounds to an integer
-  constexpr double kLog2e = 1.4426950408889634, kLn2Hi = 6.93147180369123816490e-01,
-                   kLn2Lo = 1.90821492927058770002e-10;
-  const double t = x * kLog2e + kShift;
-  const double nf = t - kShift;
-  const double r = (x - nf * kLn2Hi) - nf * kLn2Lo;
-  double p = 1.0 / 479001600.0;
-  p = p * r + 1.0 / 39916800.0;
-  p = p * r + 1.0 / 3628800.0;
-  p = p * r + 1.0 / 362880.0;
-  p = p * r + 1.0 / 40320.0;
-  p = p * r + 1.0 / 5040.0;
-  p = p * r + 1.0 / 720.0;
-  p = p * r + 1.0 / 120.0;
-  p = p * r + 1.0 / 24.0;
-  p = p * r + 1.0 / 6.0;
-  p = p * r + 0.5;
-  p = p * r + 1.0;
-  p = p * r + 1.0;
-  std::uint64_t bits;
-  std::memcpy(&bits, &t, sizeof bits);  // low bits hold n (two's complement, mod 2^51)
-  bits = (bits << 52) + (std::uint64_t{1023} << 52);
-  double scale;
-  std::memcpy(&scale, &bits, sizeof scale);
-  return p * scale;
-}
-
-//! tanh(a) = sign(a) (1 - 2 / (e^{2|a|} + 1)); absolute error ~2e-16. |a| is capped at 20,
-//! where tanh is 1 to double precision.
-inline double tanh_lane(double a) {
-  const double s = std::min(std::fabs(a), 20.0);
-  const double y = 1.0 - 2.0 / (exp_lane(2.0 * s) + 1.0);
-  return std::copysign(y, a);
 }
 
 }  // namespace
@@ -249,18 +219,145 @@ NeuralMtlWeights read_weights(const std::string& path) {
 // ---------------------------------------------------------------------------------------------
 // Fused kernel
 
+// The CPU lane types: GCC vectors of doubles, one per instruction-set build, each the width
+// of its registers (8 lanes with AVX-512, 4 with AVX2, 2 with SSE2) so that every operation,
+// the compare-selects and integer shifts of tanh included, is one instruction.
+typedef double V8 __attribute__((vector_size(64)));
+typedef std::int64_t V8i __attribute__((vector_size(64)));
+typedef double V4 __attribute__((vector_size(32)));
+typedef std::int64_t V4i __attribute__((vector_size(32)));
+typedef double V2 __attribute__((vector_size(16)));
+typedef std::int64_t V2i __attribute__((vector_size(16)));
+
+template <class V, class Vi>
+struct VectorLaneOps {
+  static constexpr int kLanes = sizeof(V) / sizeof(double);
+  GEN4D_KERNEL_INLINE static V splat(double c) { return V{} + c; }
+  GEN4D_KERNEL_INLINE static V abs(const V& x) {
+    return reinterpret_cast<V>(reinterpret_cast<Vi>(x) & std::int64_t{0x7fffffffffffffff});
+  }
+  GEN4D_KERNEL_INLINE static V min(const V& x, double c) { return x < c ? x : splat(c); }
+  GEN4D_KERNEL_INLINE static V copysign(const V& mag, const V& sgn) {
+    const std::int64_t sign = std::int64_t{1} << 63;
+    return reinterpret_cast<V>(reinterpret_cast<Vi>(mag) | (reinterpret_cast<Vi>(sgn) & sign));
+  }
+  GEN4D_KERNEL_INLINE static V pow2(const V& t) {
+    return reinterpret_cast<V>((reinterpret_cast<Vi>(t) << 52) + (std::int64_t{1023} << 52));
+  }
+};
+template <>
+struct LaneOps<V8> : VectorLaneOps<V8, V8i> {};
+template <>
+struct LaneOps<V4> : VectorLaneOps<V4, V4i> {};
+template <>
+struct LaneOps<V2> : VectorLaneOps<V2, V2i> {};
+
+namespace {
+
+//! Points [begin, end) in groups of as many points as V has lanes (the last one partial):
+//! gather sigma - 1 into lanes, run the pass, scatter the outputs (each may be null).
+//! Block: output rows per register block (8 accumulators leave room in the 16 vector
+//! registers of SSE2 and AVX2 as in the 32 of AVX-512).
+template <class V, int Block>
+GEN4D_KERNEL_INLINE void run_groups(const NetView& net, std::size_t begin, std::size_t end,
+                                    const double* sigma, double* psi, double* dpsi,
+                                    double* strain) {
+  using Ops = LaneOps<V>;
+  constexpr int L = Ops::kLanes;
+  alignas(64) V h[kMaxLayers + 1][kMaxWidth], g[2][kMaxWidth];
+  for (std::size_t s = begin; s < end; s += L) {
+    const int count = static_cast<int>(std::min<std::size_t>(L, end - s));
+    const double* in = sigma + 3 * s;
+    V x[3], n[3], d[3];
+    for (int a = 0; a < 3; ++a) {
+      x[a] = Ops::splat(0.0);
+      for (int p = 0; p < count; ++p) x[a][p] = in[3 * p + a] - 1.0;
+    }
+    if (dpsi)
+      neural_pass<Block, true>(net, x, h, g, n, d);
+    else
+      neural_pass<Block, false>(net, x, h, g, n, d);
+    if (strain)
+      for (int p = 0; p < count; ++p)
+        for (int a = 0; a < 3; ++a) strain[3 * (s + p) + a] = n[a][p];
+    if (psi) {
+      const V e = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) * 0.5;
+      for (int p = 0; p < count; ++p) psi[s + p] = e[p];
+    }
+    if (dpsi)
+      for (int p = 0; p < count; ++p)
+        for (int a = 0; a < 3; ++a) dpsi[3 * (s + p) + a] = d[a][p];
+  }
+}
+
+using GroupFn = void (*)(const NetView&, std::size_t, std::size_t, const double*, double*, double*,
+                         double*);
+
+void groups_baseline(const NetView& net, std::size_t begin, std::size_t end, const double* sigma,
+                     double* psi, double* dpsi, double* strain) {
+  run_groups<V2, 8>(net, begin, end, sigma, psi, dpsi, strain);
+}
+
+#if GEN4D_NEURAL_ISAS
+__attribute__((target("arch=x86-64-v3"))) void groups_avx2(const NetView& net, std::size_t begin,
+                                                           std::size_t end, const double* sigma,
+                                                           double* psi, double* dpsi,
+                                                           double* strain) {
+  run_groups<V4, 8>(net, begin, end, sigma, psi, dpsi, strain);
+}
+
+__attribute__((target("arch=x86-64-v4"))) void groups_avx512(const NetView& net, std::size_t begin,
+                                                             std::size_t end, const double* sigma,
+                                                             double* psi, double* dpsi,
+                                                             double* strain) {
+  run_groups<V8, 8>(net, begin, end, sigma, psi, dpsi, strain);
+}
+#endif
+
+struct CpuKernel {
+  GroupFn fn;
+  const char* isa;
+};
+
+//! The builds this CPU runs, the baseline first.
+std::vector<CpuKernel> cpu_kernels() {
+  std::vector<CpuKernel> out{{groups_baseline, "baseline"}};
+#if GEN4D_NEURAL_ISAS
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
+    out.push_back({groups_avx2, "avx2"});
+  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+      __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("avx512vl") &&
+      __builtin_cpu_supports("avx512bw"))
+    out.push_back({groups_avx512, "avx512"});
+#endif
+  return out;
+}
+
+//! The build in use: the widest, or the one GEN4D_NEURAL_ISA names (for comparisons).
+CpuKernel& cpu_kernel() {
+  static CpuKernel k = [] {
+    const auto all = cpu_kernels();
+    const char* want = std::getenv("GEN4D_NEURAL_ISA");
+    for (const CpuKernel& c : all)
+      if (want && want == std::string(c.isa)) return c;
+    return all.back();
+  }();
+  return k;
+}
+
+}  // namespace
+
 NeuralMtl::NeuralMtl(const NeuralMtlWeights& w) : law_(w.law), nu_(w.poisson_ratio) {
   w.validate("NeuralMTL weights");
-  layers_ = static_cast<int>(w.layers.size());
-  // Widths are padded to multiples of kBlock with zero weights and biases: a padded unit
-  // computes tanh(0) = 0 and feeds nothing forward or back, so results are unchanged while
-  // every loop runs over whole register blocks.
-  auto padded = [](int n) { return (n + kBlock - 1) / kBlock * kBlock; };
-  width_[0] = padded(3);
-  for (int l = 0; l < layers_; ++l) {
+  const int layers = static_cast<int>(w.layers.size());
+  auto padded = [](int n) { return (n + kPad - 1) / kPad * kPad; };
+  view_.layers = layers;
+  view_.width[0] = padded(3);
+  for (int l = 0; l < layers; ++l) {
     const Layer& L = w.layers[l];
-    const int in = width_[l], out = padded(L.out);
-    width_[l + 1] = out;
+    const int in = view_.width[l], out = padded(L.out);
+    view_.width[l + 1] = out;
     W_[l].assign(static_cast<std::size_t>(out) * in, 0.0);
     Wt_[l].assign(static_cast<std::size_t>(out) * in, 0.0);
     b_[l].assign(out, 0.0);
@@ -271,99 +368,54 @@ NeuralMtl::NeuralMtl(const NeuralMtlWeights& w) : law_(w.law), nu_(w.poisson_rat
         Wt_[l][static_cast<std::size_t>(i) * out + j] = L.W[j * L.in + i];
       }
     }
+    view_.W[l] = W_[l].data();
+    view_.Wt[l] = Wt_[l].data();
+    view_.b[l] = b_[l].data();
   }
-  // Activation: subtract the raw output at rest, computed by the same arithmetic, so the
-  // strain, energy and stress at rest are exactly zero.
+  // Activation: subtract the raw output at rest, computed by the same arithmetic (m0 = 0
+  // while it is computed), so the strain, energy and stress at rest are exactly zero.
   const double rest[3] = {1.0, 1.0, 1.0};
-  strain(1, rest, m0_.data());  // through the same clone as every later call
+  double m0[3];
+  strain(1, rest, m0);
+  for (int a = 0; a < 3; ++a) view_.m0[a] = m0[a];
 }
 
-namespace {
-//! out[j][p] = bias[j] + sum_i M[j * in + i] x[i][p] for j < out (a multiple of kBlock):
-//! kBlock rows at a time so each loaded x[i] feeds kBlock x kLanes multiply-adds.
-template <int Block, int L>
-__attribute__((always_inline)) inline void dense(int in, int out, const double* M,
-                                                 const double* bias, const double (*x)[L],
-                                                 double (*y)[L]) {
-  for (int j0 = 0; j0 < out; j0 += Block) {
-    alignas(64) double acc[Block][L];
-    for (int r = 0; r < Block; ++r)
-      for (int p = 0; p < L; ++p) acc[r][p] = bias ? bias[j0 + r] : 0.0;
-    for (int i = 0; i < in; ++i)
-      for (int r = 0; r < Block; ++r) {
-        const double w = M[(j0 + r) * in + i];
-        for (int p = 0; p < L; ++p) acc[r][p] += w * x[i][p];
-      }
-    for (int r = 0; r < Block; ++r)
-      for (int p = 0; p < L; ++p) y[j0 + r][p] = acc[r][p];
-  }
+const char* NeuralMtl::isa() {
+  return cpu_kernel().isa;
 }
-}  // namespace
 
-template <bool Backward>
-__attribute__((always_inline)) inline void NeuralMtl::lanes(int count, const double* sigma,
-                                                            double* psi, double* dpsi,
-                                                            double* strain) const {
-  constexpr int L = kLanes;
-  alignas(64) double h[kMaxLayers + 1][kMaxWidth][L];  // post-activation values per layer
-  for (int a = 0; a < width_[0]; ++a)
-    for (int p = 0; p < L; ++p) h[0][a][p] = a < 3 && p < count ? sigma[3 * p + a] - 1.0 : 0.0;
-  for (int l = 0; l < layers_; ++l) {
-    const int in = width_[l], out = width_[l + 1];
-    dense<kBlock, L>(in, out, W_[l].data(), b_[l].data(), h[l], h[l + 1]);
-    if (l == layers_ - 1)
-      for (int j = 0; j < 3; ++j)
-        for (int p = 0; p < L; ++p) h[l + 1][j][p] -= m0_[j];
-    else
-      for (int j = 0; j < out; ++j)
-        for (int p = 0; p < L; ++p) h[l + 1][j][p] = tanh_lane(h[l + 1][j][p]);
-  }
-  const double(*n)[L] = h[layers_];
-  if (strain)
-    for (int p = 0; p < count; ++p)
-      for (int a = 0; a < 3; ++a) strain[3 * p + a] = n[a][p];
-  if (psi)
-    for (int p = 0; p < count; ++p)
-      psi[p] = 0.5 * (n[0][p] * n[0][p] + n[1][p] * n[1][p] + n[2][p] * n[2][p]);
-  if constexpr (Backward) {
-    // Reverse pass of psi = |n|^2 / 2: g starts at n (padded entries 0) and goes back
-    // through each layer: g_in = W^T g_out, times tanh' = 1 - h^2 below the last layer.
-    alignas(64) double g[2][kMaxWidth][L];
-    for (int a = 0; a < width_[layers_]; ++a)
-      for (int p = 0; p < L; ++p) g[0][a][p] = a < 3 ? n[a][p] : 0.0;
-    int cur = 0;
-    for (int l = layers_ - 1; l >= 0; --l) {
-      const int in = width_[l], out = width_[l + 1];
-      dense<kBlock, L>(out, in, Wt_[l].data(), nullptr, g[cur], g[1 - cur]);
-      cur = 1 - cur;
-      if (l > 0)
-        for (int i = 0; i < in; ++i)
-          for (int p = 0; p < L; ++p) g[cur][i][p] *= 1.0 - h[l][i][p] * h[l][i][p];
+std::vector<std::string> NeuralMtl::isas() {
+  std::vector<std::string> out;
+  for (const CpuKernel& c : cpu_kernels()) out.emplace_back(c.isa);
+  return out;
+}
+
+void NeuralMtl::select_isa(const std::string& isa) {
+  for (const CpuKernel& c : cpu_kernels())
+    if (isa == c.isa) {
+      cpu_kernel() = c;
+      return;
     }
-    for (int p = 0; p < count; ++p)
-      for (int a = 0; a < 3; ++a) dpsi[3 * p + a] = g[cur][a][p];
-  }
+  throw std::invalid_argument("NeuralMtl::select_isa: '" + isa + "' is not available here");
 }
 
-// The batch loops are compiled twice: for x86-64-v3 (AVX2 + FMA), picked at load time where
-// the CPU has it, and for the baseline x86-64 (SSE2) everywhere else; lanes() is inlined into
-// each clone.
-GEN4D_KERNEL_CLONES void NeuralMtl::evaluate(std::size_t n, const double* sigma, double* psi,
-                                             double* dpsi) const {
-  for (std::size_t s = 0; s < n; s += kLanes) {
-    const int count = static_cast<int>(std::min<std::size_t>(kLanes, n - s));
-    if (dpsi)
-      lanes<true>(count, sigma + 3 * s, psi ? psi + s : nullptr, dpsi + 3 * s, nullptr);
-    else
-      lanes<false>(count, sigma + 3 * s, psi ? psi + s : nullptr, nullptr, nullptr);
-  }
+// Each thread takes whole groups of kLanes points (a multiple of every lane width).
+void NeuralMtl::evaluate(std::size_t n, const double* sigma, double* psi, double* dpsi) const {
+  const GroupFn fn = cpu_kernel().fn;
+  const long groups = static_cast<long>((n + kLanes - 1) / kLanes);
+  exec::parallel_blocks(groups, [&](long g0, long g1) {
+    fn(view_, static_cast<std::size_t>(g0) * kLanes,
+       std::min(n, static_cast<std::size_t>(g1) * kLanes), sigma, psi, dpsi, nullptr);
+  });
 }
 
-GEN4D_KERNEL_CLONES void NeuralMtl::strain(std::size_t n, const double* sigma, double* out) const {
-  for (std::size_t s = 0; s < n; s += kLanes) {
-    const int count = static_cast<int>(std::min<std::size_t>(kLanes, n - s));
-    lanes<false>(count, sigma + 3 * s, nullptr, nullptr, out + 3 * s);
-  }
+void NeuralMtl::strain(std::size_t n, const double* sigma, double* out) const {
+  const GroupFn fn = cpu_kernel().fn;
+  const long groups = static_cast<long>((n + kLanes - 1) / kLanes);
+  exec::parallel_blocks(groups, [&](long g0, long g1) {
+    fn(view_, static_cast<std::size_t>(g0) * kLanes,
+       std::min(n, static_cast<std::size_t>(g1) * kLanes), sigma, nullptr, nullptr, out);
+  });
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -19,17 +19,17 @@
 
 #include <array>
 #include <cstddef>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "materials/Mat3.hpp"
+#include "neural/NeuralMtlKernel.hpp"
 
 namespace gen4d::neural {
 
 inline constexpr const char* kWeightsFormat = "gen4d-neuralmtl";
 inline constexpr long kWeightsVersion = 1;
-inline constexpr int kMaxWidth = 64;  //!< widest hidden layer the fused kernel accepts
-inline constexpr int kMaxLayers = 6;  //!< most affine layers the fused kernel accepts
 
 //! Laws a NeuralMTL can be fitted to (the hyperelastic laws of src/materials).
 const std::vector<std::string>& neural_laws();
@@ -70,14 +70,17 @@ void write_weights(const std::string& path, const NeuralMtlWeights& w);
 NeuralMtlWeights read_weights(const std::string& path);
 
 //! The fused evaluator: MLP, activation, reverse pass and (in material form) target, for
-//! batches of quadrature points. Lanes of 8 points are processed together in
-//! structure-of-arrays form so every layer loop vectorises, tanh included.
+//! batches of quadrature points. On the CPU, groups of points as wide as the vector registers
+//! go through the network together (NeuralMtlKernel.hpp; built for AVX-512, AVX2 + FMA and the
+//! baseline x86-64, picked at run time), and the groups are shared among the host threads
+//! (exec::parallel_blocks). Every point's result is independent of the thread count.
 class NeuralMtl {
  public:
-  static constexpr int kLanes = 8;
-  static constexpr int kBlock = 4;  //!< output rows per register block
+  static constexpr int kLanes = 8;  //!< most points per NeuralMaterial::energy_and_pk1_cell
 
   explicit NeuralMtl(const NeuralMtlWeights& w);
+  NeuralMtl(const NeuralMtl&) = delete;
+  NeuralMtl& operator=(const NeuralMtl&) = delete;
 
   //! For n points (sigma: 3 per point): psi_N (may be null) and d psi_N / d sigma (3 per
   //! point; may be null), normalised by E.
@@ -86,19 +89,40 @@ class NeuralMtl {
   //! minus its value at rest.
   void strain(std::size_t n, const double* sigma, double* strain) const;
 
-  const std::string& law() const { return law_; }
-  double poisson_ratio() const { return nu_; }
+#if defined(GEN4D_CUDA)
+  //! evaluate() on this rank's GPU (exec::use_device() must be true): sigma, psi and dpsi
+  //! point to device memory (psi may be null). The weights are uploaded on the first call.
+  //! Returns when the results are in place. Agrees with evaluate() to rounding (~1e-13).
+  void evaluate_device(std::size_t n, const double* sigma, double* psi, double* dpsi) const;
+#endif
+
+  const std::string& law() const {
+    return law_;
+  }
+  double poisson_ratio() const {
+    return nu_;
+  }
+  //! Instruction set of the CPU kernel in use: "avx512", "avx2" or "baseline" (the widest
+  //! this CPU runs, unless GEN4D_NEURAL_ISA names another or select_isa() chose one).
+  static const char* isa();
+  //! The instruction sets this CPU runs, "baseline" first.
+  static std::vector<std::string> isas();
+  //! Switches every NeuralMtl to one of isas() (for tests and benchmarks; not thread-safe);
+  //! std::invalid_argument otherwise.
+  static void select_isa(const std::string& isa);
+
+  //! The network in the kernel's layout (host memory).
+  const NetView& view() const {
+    return view_;
+  }
 
  private:
-  template <bool Backward>
-  void lanes(int count, const double* sigma, double* psi, double* dpsi, double* strain) const;
-
+  struct DeviceCache;
   std::string law_;
   double nu_ = 0;
-  int layers_ = 0;
-  std::array<int, kMaxLayers + 1> width_{};  // padded to kBlock: 3 -> 4, 24 -> 24
   std::array<std::vector<double>, kMaxLayers> W_, Wt_, b_;
-  std::array<double, 3> m0_{};  // raw output at rest, subtracted by the activation
+  NetView view_;
+  mutable std::shared_ptr<DeviceCache> device_;  // weights on the GPU, on first use
 };
 
 //! NeuralMTL as a pointwise material for the voxel solver: psi = E psi_N, P = E U diag(grad) V^T.

@@ -71,6 +71,7 @@ void NodeGrid::init(const std::array<std::vector<long>, 3>* ownership) {
   check(DMSetUp(dm3_), "DMSetUp");
   // The scalar DM shares the decomposition of the vector one.
   check(DMDACreateCompatibleDMDA(dm3_, 1, &dm1_), "DMDACreateCompatibleDMDA");
+  check(DMDACreateCompatibleDMDA(dm3_, 4, &dm4_), "DMDACreateCompatibleDMDA");
 
   PetscInt xs, ys, zs, xm, ym, zm;
   check(DMDAGetCorners(dm3_, &xs, &ys, &zs, &xm, &ym, &zm), "DMDAGetCorners");
@@ -102,6 +103,7 @@ void NodeGrid::init(const std::array<std::vector<long>, 3>* ownership) {
 
 NodeGrid::~NodeGrid() {
   DMDestroy(&dm1_);
+  DMDestroy(&dm4_);
   DMDestroy(&dm3_);
 }
 

@@ -44,7 +44,8 @@ class NodeGrid {
   MPI_Comm comm() const { return comm_; }
   int rank() const { return rank_; }
   int size() const { return size_; }
-  DM dm(int dof) const { return dof == 3 ? dm3_ : dm1_; }
+  //! The DMDA of `dof` values per node (1, 3 or 4), all with the same layout.
+  DM dm(int dof) const { return dof == 4 ? dm4_ : dof == 3 ? dm3_ : dm1_; }
 
   const std::array<long, 3>& global_nodes() const { return global_; }
   std::array<long, 3> global_cells() const {
@@ -66,7 +67,7 @@ class NodeGrid {
   MPI_Comm comm_;
   int rank_ = 0, size_ = 1;
   std::array<long, 3> global_{};
-  DM dm1_ = nullptr, dm3_ = nullptr;
+  DM dm1_ = nullptr, dm3_ = nullptr, dm4_ = nullptr;
   Box owned_, ghosted_, cells_, owned_cells_;
   std::array<std::vector<long>, 3> starts_;
 

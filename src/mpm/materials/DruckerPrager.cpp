@@ -48,12 +48,10 @@ struct DruckerPragerConstants {
   double tr_apex;  //!< tr(e) of the apex (0 without cohesion, +inf for a cylinder)
 };
 
-// Return map of one particle: F (9) and state (kStateSize) in place, tau (9) out.
-inline void drucker_prager_kernel(const DruckerPragerConstants& c, double* Fp, double* state,
-                                  double* taup) {
-  Mat3 U, V;
-  Vec3 s;
-  materials::svd3(detail::load3x3(Fp), U, s, V);
+// Return map of one particle given the signed SVD U diag(s) V^T of its F: F (9) and state
+// (kStateSize) in place, tau (9) out.
+inline void drucker_prager_kernel(const DruckerPragerConstants& c, const Mat3& U, const Vec3& s,
+                                  const Mat3& V, double* Fp, double* state, double* taup) {
   Vec3 e = detail::hencky_strain(s);
   const double vc = state[0];
   for (int k = 0; k < 3; ++k) e[k] += vc / 3.0;
@@ -104,8 +102,9 @@ class DruckerPrager final : public ElasticBase {
     return {"volume_correction", "plastic_shear_strain"};
   }
   void update(std::size_t n, double* F, double* state, double* tau, double) const override {
-    for (std::size_t i = 0; i < n; ++i)
-      drucker_prager_kernel(c_, F + 9 * i, state + kStateSize * i, tau + 9 * i);
+    detail::for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3& V) {
+      drucker_prager_kernel(c_, U, s, V, F + 9 * i, state + kStateSize * i, tau + 9 * i);
+    });
   }
   void stress(std::size_t n, const double* F, const double*, double* tau) const override {
     detail::hencky_stress_batch(n, F, mu_, lambda_, tau);

@@ -14,10 +14,7 @@ namespace {
 using detail::Mat3;
 using detail::Vec3;
 
-inline Mat3 fixed_corotated_tau(const Mat3& F, double mu, double lambda) {
-  Mat3 U, V;
-  Vec3 s;
-  materials::svd3(F, U, s, V);
+inline Mat3 fixed_corotated_tau(const Mat3& U, const Vec3& s, double mu, double lambda) {
   const double J = s[0] * s[1] * s[2];
   const double vol = lambda * (J - 1) * J;
   const Vec3 t{{2 * mu * (s[0] - 1) * s[0] + vol, 2 * mu * (s[1] - 1) * s[1] + vol,
@@ -34,8 +31,9 @@ class FixedCorotated final : public ElasticBase {
     stress(n, F, nullptr, tau);
   }
   void stress(std::size_t n, const double* F, const double*, double* tau) const override {
-    for (std::size_t i = 0; i < n; ++i)
-      detail::store3x3(fixed_corotated_tau(detail::load3x3(F + 9 * i), mu_, lambda_), tau + 9 * i);
+    detail::for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3&) {
+      detail::store3x3(fixed_corotated_tau(U, s, mu_, lambda_), tau + 9 * i);
+    });
   }
 };
 

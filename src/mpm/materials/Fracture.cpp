@@ -33,11 +33,8 @@ struct FractureConstants {
 };
 
 // tau of one particle; `history`/`damage` in: the stored state, out: the updated one.
-inline Mat3 fracture_tau(const FractureConstants& c, const Mat3& F, double& damage,
+inline Mat3 fracture_tau(const FractureConstants& c, const Mat3& U, const Vec3& s, double& damage,
                          double& history) {
-  Mat3 U, V;
-  Vec3 s;
-  materials::svd3(F, U, s, V);
   history = std::max(history, std::log(std::max(s[0], detail::kMinStretch)));
   damage = std::max(damage, c.damage(history));
   const double J = s[0] * s[1] * s[2];
@@ -66,16 +63,16 @@ class Fracture final : public ElasticBase {
     return {"damage", "max_principal_strain"};
   }
   void update(std::size_t n, double* F, double* state, double* tau, double) const override {
-    for (std::size_t i = 0; i < n; ++i) {
+    detail::for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3&) {
       double* st = state + kStateSize * i;
-      detail::store3x3(fracture_tau(c_, detail::load3x3(F + 9 * i), st[0], st[1]), tau + 9 * i);
-    }
+      detail::store3x3(fracture_tau(c_, U, s, st[0], st[1]), tau + 9 * i);
+    });
   }
   void stress(std::size_t n, const double* F, const double* state, double* tau) const override {
-    for (std::size_t i = 0; i < n; ++i) {
+    detail::for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3&) {
       double d = state[kStateSize * i], h = state[kStateSize * i + 1];
-      detail::store3x3(fracture_tau(c_, detail::load3x3(F + 9 * i), d, h), tau + 9 * i);
-    }
+      detail::store3x3(fracture_tau(c_, U, s, d, h), tau + 9 * i);
+    });
   }
 
  private:

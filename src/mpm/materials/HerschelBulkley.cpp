@@ -58,11 +58,9 @@ inline double herschel_bulkley_return(const HerschelBulkleyConstants& c, double 
   return detail::decreasing_root(eval, rigid, rigid, 1e-14 * a * m);
 }
 
-inline void herschel_bulkley_kernel(const HerschelBulkleyConstants& c, double* Fp, double* state,
-                                    double* taup, double dt) {
-  Mat3 U, V;
-  Vec3 s;
-  materials::svd3(detail::load3x3(Fp), U, s, V);
+inline void herschel_bulkley_kernel(const HerschelBulkleyConstants& c, const Mat3& U, const Vec3& s,
+                                    const Mat3& V, double* Fp, double* state, double* taup,
+                                    double dt) {
   Vec3 e = detail::hencky_strain(s);
   const Vec3 eh = detail::dev3(e);
   const double m = detail::norm3(eh);
@@ -94,8 +92,9 @@ class HerschelBulkley final : public ElasticBase {
   std::string name() const override { return "herschel_bulkley"; }
   std::vector<std::string> state_names() const override { return {"plastic_strain"}; }
   void update(std::size_t n, double* F, double* state, double* tau, double dt) const override {
-    for (std::size_t i = 0; i < n; ++i)
-      herschel_bulkley_kernel(c_, F + 9 * i, state + kStateSize * i, tau + 9 * i, dt);
+    detail::for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3& V) {
+      herschel_bulkley_kernel(c_, U, s, V, F + 9 * i, state + kStateSize * i, tau + 9 * i, dt);
+    });
   }
   void stress(std::size_t n, const double* F, const double*, double* tau) const override {
     detail::hencky_stress_batch(n, F, mu_, lambda_, tau);

@@ -88,16 +88,28 @@ inline Mat3 from_principal(const Mat3& U, const Vec3& d) {
   return materials::compose_svd(U, d, U);
 }
 
+//! fn(i, U, sigma, V) for each of n row-major F's with F_i's signed SVD, computed a block at a
+//! time on vector lanes (materials::svd3_batch, the same bits as svd3). fn may change F_i.
+template <class Fn>
+inline void for_each_svd(std::size_t n, const double* F, const Fn& fn) {
+  constexpr std::size_t kBlock = 64;
+  double U[9 * kBlock], S[3 * kBlock], V[9 * kBlock];
+  for (std::size_t b = 0; b < n; b += kBlock) {
+    const std::size_t m = std::min(kBlock, n - b);
+    materials::svd3_batch(m, F + 9 * b, U, S, V);
+    for (std::size_t k = 0; k < m; ++k)
+      fn(b + k, load3x3(U + 9 * k), Vec3{{S[3 * k], S[3 * k + 1], S[3 * k + 2]}},
+         load3x3(V + 9 * k));
+  }
+}
+
 //! StVK-Hencky Kirchhoff stress of n row-major F's: the elastic part shared by the plastic
 //! models (their stress() evaluates the current elastic F without a return map).
 inline void hencky_stress_batch(std::size_t n, const double* F, double mu, double lambda,
                                 double* tau) {
-  for (std::size_t i = 0; i < n; ++i) {
-    Mat3 U, V;
-    Vec3 s;
-    materials::svd3(load3x3(F + 9 * i), U, s, V);
+  for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3&) {
     store3x3(from_principal(U, hencky_principal_tau(hencky_strain(s), mu, lambda)), tau + 9 * i);
-  }
+  });
 }
 
 //! Root of a strictly decreasing scalar function g on [0, hi] with g(0) > 0 >= g(hi), by Newton

@@ -48,10 +48,8 @@ inline Mat3 hardened_tau(const SnowConstants& c, const Mat3& U, const Vec3& s, d
   return detail::from_principal(U, t);
 }
 
-inline void snow_kernel(const SnowConstants& c, double* Fp, double* state, double* taup) {
-  Mat3 U, V;
-  Vec3 s;
-  materials::svd3(detail::load3x3(Fp), U, s, V);
+inline void snow_kernel(const SnowConstants& c, const Mat3& U, Vec3 s, const Mat3& V, double* Fp,
+                        double* state, double* taup) {
   bool clamped = false;
   double ratio = 1.0;
   for (int k = 0; k < 3; ++k) {
@@ -94,16 +92,14 @@ class Snow final : public ElasticBase {
     state[0] = 1.0;
   }
   void update(std::size_t n, double* F, double* state, double* tau, double) const override {
-    for (std::size_t i = 0; i < n; ++i)
-      snow_kernel(c_, F + 9 * i, state + kStateSize * i, tau + 9 * i);
+    detail::for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3& V) {
+      snow_kernel(c_, U, s, V, F + 9 * i, state + kStateSize * i, tau + 9 * i);
+    });
   }
   void stress(std::size_t n, const double* F, const double* state, double* tau) const override {
-    for (std::size_t i = 0; i < n; ++i) {
-      Mat3 U, V;
-      Vec3 s;
-      materials::svd3(detail::load3x3(F + 9 * i), U, s, V);
+    detail::for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3&) {
       detail::store3x3(hardened_tau(c_, U, s, c_.hardening(state[kStateSize * i])), tau + 9 * i);
-    }
+    });
   }
   double wave_speed() const override {
     return std::sqrt(std::exp(c_.xi) * (lambda_ + 2 * mu_) / density_);

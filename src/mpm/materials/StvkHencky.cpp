@@ -13,10 +13,7 @@ namespace {
 using detail::Mat3;
 using detail::Vec3;
 
-inline Mat3 stvk_hencky_tau(const Mat3& F, double mu, double lambda) {
-  Mat3 U, V;
-  Vec3 s;
-  materials::svd3(F, U, s, V);
+inline Mat3 stvk_hencky_tau(const Mat3& U, const Vec3& s, double mu, double lambda) {
   return detail::from_principal(U,
                                 detail::hencky_principal_tau(detail::hencky_strain(s), mu, lambda));
 }
@@ -30,8 +27,9 @@ class StvkHencky final : public ElasticBase {
     stress(n, F, nullptr, tau);
   }
   void stress(std::size_t n, const double* F, const double*, double* tau) const override {
-    for (std::size_t i = 0; i < n; ++i)
-      detail::store3x3(stvk_hencky_tau(detail::load3x3(F + 9 * i), mu_, lambda_), tau + 9 * i);
+    detail::for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3&) {
+      detail::store3x3(stvk_hencky_tau(U, s, mu_, lambda_), tau + 9 * i);
+    });
   }
 };
 

@@ -91,11 +91,8 @@ inline double johnson_cook_return(const VonMisesConstants& c, double nrm, double
   return detail::decreasing_root(eval, nrm, std::min(f_trial / two_mu, nrm), 1e-14 * two_mu * nrm);
 }
 
-inline void von_mises_kernel(const VonMisesConstants& c, double* Fp, double* state, double* taup,
-                             double dt) {
-  Mat3 U, V;
-  Vec3 s;
-  materials::svd3(detail::load3x3(Fp), U, s, V);
+inline void von_mises_kernel(const VonMisesConstants& c, const Mat3& U, const Vec3& s,
+                             const Mat3& V, double* Fp, double* state, double* taup, double dt) {
   Vec3 e = detail::hencky_strain(s);
   const Vec3 eh = detail::dev3(e);
   const double nrm = detail::norm3(eh);
@@ -182,8 +179,9 @@ class VonMises final : public ElasticBase {
     state[1] = T0_;
   }
   void update(std::size_t n, double* F, double* state, double* tau, double dt) const override {
-    for (std::size_t i = 0; i < n; ++i)
-      von_mises_kernel(c_, F + 9 * i, state + kStateSize * i, tau + 9 * i, dt);
+    detail::for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3& V) {
+      von_mises_kernel(c_, U, s, V, F + 9 * i, state + kStateSize * i, tau + 9 * i, dt);
+    });
   }
   void stress(std::size_t n, const double* F, const double*, double* tau) const override {
     detail::hencky_stress_batch(n, F, mu_, lambda_, tau);

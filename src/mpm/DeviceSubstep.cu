@@ -1,0 +1,114 @@
+// CUDA instantiation of the MPM kernels (mpm/Kernels.hpp); no physics here.
+#include <cstdint>
+
+#include "core/DeviceArray.hpp"
+#include "core/ParallelFor.hpp"
+#include "mpm/DeviceSubstep.hpp"
+
+namespace gen4d::mpm::device {
+
+using exec::DeviceArray;
+
+class Workspace {
+ public:
+  DeviceArray<double> x, v, C, F, tau, mass, vol0, pm, vel;
+  DeviceArray<std::uint8_t> flag;
+  DeviceArray<kernels::GridCondition> cond;
+};
+
+void WorkspaceDeleter::operator()(Workspace* w) const {
+  delete w;
+}
+
+WorkspacePtr make_workspace() {
+  return WorkspacePtr(new Workspace);
+}
+
+namespace {
+
+//! Order-independent: every value is an integer multiple of the quantum.
+struct AtomicAdd {
+  GEN4D_HD void operator()(double* g, const double* q) const {
+    for (int k = 0; k < 12; ++k) {
+#if defined(__CUDA_ARCH__)
+      atomicAdd(g + k, q[k]);
+#else
+      g[k] += q[k];
+#endif
+    }
+  }
+};
+
+void sync(const char* what) {
+  exec::cuda_check(cudaGetLastError(), what);
+  exec::cuda_check(cudaDeviceSynchronize(), what);
+}
+
+}  // namespace
+
+void p2g(Workspace& w, const kernels::P2GArgs& args, long n, double* grid, long nodes) {
+  const auto un = static_cast<std::size_t>(n);
+  w.x.upload(args.x, 3 * un);
+  w.v.upload(args.v, 3 * un);
+  w.C.upload(args.C, 9 * un);
+  w.tau.upload(args.tau, 9 * un);
+  w.mass.upload(args.mass, un);
+  w.vol0.upload(args.vol0, un);
+  w.flag.upload(args.flag, un);
+  w.pm.resize(4 * static_cast<std::size_t>(nodes));
+  w.pm.zero();
+  kernels::P2GArgs a = args;
+  a.x = w.x.data();
+  a.v = w.v.data();
+  a.C = w.C.data();
+  a.tau = w.tau.data();
+  a.mass = w.mass.data();
+  a.vol0 = w.vol0.data();
+  a.flag = w.flag.data();
+  double* g = w.pm.data();
+  exec::device_for(n, [=] __device__(long i) { kernels::p2g_particle(a, i, g, AtomicAdd{}); });
+  sync("mpm p2g");
+  w.pm.download(grid, 4 * static_cast<std::size_t>(nodes));
+}
+
+void grid_update(Workspace& w, const kernels::GridArgs& args, long nodes) {
+  const auto un = static_cast<std::size_t>(nodes);
+  w.pm.upload(args.pm, 4 * un);
+  w.vel.resize(3 * un);
+  w.cond.upload(args.cond, static_cast<std::size_t>(args.ncond));
+  kernels::GridArgs a = args;
+  a.pm = w.pm.data();
+  a.vel = w.vel.data();
+  a.cond = w.cond.data();
+  exec::device_for(nodes, [=] __device__(long k) { kernels::grid_node(a, k); });
+  sync("mpm grid update");
+  w.vel.download(args.vel, 3 * un);
+}
+
+void g2p(Workspace& w, const kernels::G2PArgs& args, long n, long nodes) {
+  const auto un = static_cast<std::size_t>(n);
+  w.x.upload(args.x, 3 * un);
+  w.v.resize(3 * un);
+  w.C.resize(9 * un);
+  w.F.upload(args.F, 9 * un);
+  w.flag.upload(args.flag, un);
+  w.vel.upload(args.vel, 3 * static_cast<std::size_t>(nodes));
+  kernels::G2PArgs a = args;
+  a.x = w.x.data();
+  a.v = w.v.data();
+  a.C = w.C.data();
+  a.F = w.F.data();
+  a.flag = w.flag.data();
+  a.vel = w.vel.data();
+  // Frozen particles keep their v and C: start from the host's.
+  w.v.upload(args.v, 3 * un);
+  w.C.upload(args.C, 9 * un);
+  exec::device_for(n, [=] __device__(long i) { kernels::g2p_particle(a, i); });
+  sync("mpm g2p");
+  w.x.download(args.x, 3 * un);
+  w.v.download(args.v, 3 * un);
+  w.C.download(args.C, 9 * un);
+  w.F.download(args.F, 9 * un);
+}
+
+}  // namespace gen4d::mpm::device
