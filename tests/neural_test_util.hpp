@@ -1,7 +1,10 @@
-//! Shared by the NeuralMTL test suites: reproducible random networks.
+//! Shared by the NeuralMTL test suites: reproducible random networks and stretches.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
+#include <cstddef>
+#include <functional>
 #include <random>
 #include <string>
 #include <vector>
@@ -26,6 +29,19 @@ inline neural::NeuralMtlWeights random_weights(unsigned seed, const std::vector<
     for (double& v : L.b) v = 0.3 * normal(rng);
   }
   return w;
+}
+
+//! n triples of principal stretches in [e^-0.7, e^0.7], sorted in decreasing order.
+inline std::vector<double> random_sigmas(std::size_t n, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-0.7, 0.7);
+  std::vector<double> s(3 * n);
+  for (std::size_t p = 0; p < n; ++p) {
+    double v[3] = {std::exp(u(rng)), std::exp(u(rng)), std::exp(u(rng))};
+    std::sort(v, v + 3, std::greater<>());
+    for (int a = 0; a < 3; ++a) s[3 * p + a] = v[a];
+  }
+  return s;
 }
 
 }  // namespace gen4d::test

@@ -55,18 +55,6 @@ void reference(const gn::NeuralMtlWeights& w, const double sigma[3], double n[3]
   for (int a = 0; a < 3; ++a) n[a] = m[a] - m0[a];
 }
 
-std::vector<double> random_sigmas(std::size_t n, unsigned seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(-0.7, 0.7);
-  std::vector<double> s(3 * n);
-  for (std::size_t p = 0; p < n; ++p) {
-    double v[3] = {std::exp(u(rng)), std::exp(u(rng)), std::exp(u(rng))};
-    std::sort(v, v + 3, std::greater<>());
-    for (int a = 0; a < 3; ++a) s[3 * p + a] = v[a];
-  }
-  return s;
-}
-
 std::string scratch(const std::string& name) {
   const auto d = std::filesystem::path(GEN4D_BINARY_DIR) / "tests" / "scratch" / "neural";
   std::filesystem::create_directories(d);
@@ -96,7 +84,7 @@ TEST(NeuralMtl, KernelMatchesReferenceIncludingPartialLanes) {
       const auto w = random_weights(1, hidden);
       const gn::NeuralMtl net(w);
       for (std::size_t n : {1u, 3u, 7u, 8u, 13u, 1000u}) {
-        const auto s = random_sigmas(n, 10 + n);
+        const auto s = gen4d::test::random_sigmas(n, 10 + n);
         std::vector<double> strain(3 * n), psi(n), grad(3 * n);
         net.strain(n, s.data(), strain.data());
         net.evaluate(n, s.data(), psi.data(), grad.data());
@@ -120,7 +108,7 @@ TEST(NeuralMtl, KernelMatchesReferenceIncludingPartialLanes) {
 TEST(NeuralMtl, ThreadsGiveIdenticalResults) {
   const gn::NeuralMtl net(random_weights(9));
   const std::size_t n = 40001;  // above the serial threshold, a partial lane group at the end
-  const auto s = random_sigmas(n, 4);
+  const auto s = gen4d::test::random_sigmas(n, 4);
   auto run = [&](int threads) {
     const int before = gen4d::exec::host_threads();
 #if defined(_OPENMP)
@@ -140,7 +128,7 @@ TEST(NeuralMtl, ThreadsGiveIdenticalResults) {
 
 TEST(NeuralMtl, GradientIsTheDerivativeOfTheEnergy) {
   const gn::NeuralMtl net(random_weights(2));
-  const auto s = random_sigmas(50, 3);
+  const auto s = gen4d::test::random_sigmas(50, 3);
   std::vector<double> psi(50), grad(150);
   net.evaluate(50, s.data(), psi.data(), grad.data());
   const double h = 1e-6;
@@ -201,7 +189,7 @@ TEST(NeuralMtl, LawEnergyGradientAndRest) {
     const double rest[3] = {1, 1, 1};
     double g[3];
     EXPECT_NEAR(gn::law_energy(law, 0.3, rest, g), 0.0, 1e-14);
-    const auto s = random_sigmas(20, 7 + law);
+    const auto s = gen4d::test::random_sigmas(20, 7 + law);
     for (int p = 0; p < 20; ++p) {
       double grad[3];
       gn::law_energy(law, 0.3, &s[3 * p], grad);

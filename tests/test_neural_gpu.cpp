@@ -17,22 +17,6 @@
 
 namespace gn = gen4d::neural;
 
-namespace {
-
-std::vector<double> sigmas(std::size_t n, unsigned seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(-0.7, 0.7);
-  std::vector<double> s(3 * n);
-  for (std::size_t p = 0; p < n; ++p) {
-    double v[3] = {std::exp(u(rng)), std::exp(u(rng)), std::exp(u(rng))};
-    std::sort(v, v + 3, std::greater<>());
-    for (int a = 0; a < 3; ++a) s[3 * p + a] = v[a];
-  }
-  return s;
-}
-
-}  // namespace
-
 TEST(NeuralMtlGpu, DeviceKernelMatchesTheCpuKernel) {
 #if !defined(GEN4D_CUDA)
   GTEST_SKIP() << "built without CUDA";
@@ -46,7 +30,7 @@ TEST(NeuralMtlGpu, DeviceKernelMatchesTheCpuKernel) {
   for (std::size_t k = 0; k < nets.size(); ++k) {
     const gn::NeuralMtl net(nets[k]);
     const std::size_t n = 10007;  // not a multiple of the 256-thread blocks
-    const auto s = sigmas(n, 20 + k);
+    const auto s = gen4d::test::random_sigmas(n, 20 + k);
     std::vector<double> psi(n), grad(3 * n), gpsi(n), ggrad(3 * n);
     net.evaluate(n, s.data(), psi.data(), grad.data());
     gen4d::exec::DeviceArray<double> ds, dpsi(n), dgrad(3 * n);

@@ -389,6 +389,62 @@ TEST(Render, TiledEqualsBruteForce) {
   EXPECT_TRUE(bitwise_equal(tiled, render(reversed, cam, opt)));
 }
 
+// The tile-local blend (each splat visiting only the pixels of its ellipse, the tile ending
+// when every pixel is finished) against the previous blend, where every pixel walks its tile's
+// whole list, and the radix sort against the comparison sort: the same image bit for bit, for
+// scenes that stress the pixel cut (needle-thin and huge splats, grazing views, opacity above
+// 1, exact depth ties) and that finish pixels early (dense stacks), at 1 and 3 threads.
+TEST(Render, TileBlendEqualsLegacy) {
+  std::vector<std::pair<std::string, SplatFrame>> scenes;
+  scenes.emplace_back("mixed", random_scene(600, 3, 31, 1.0f, 6.0f));
+  {
+    // Needles: one scale 1e-4 of the others, so the screen conic is nearly singular and its
+    // power cancels; plus a few splats filling the view.
+    std::mt19937 rng(32);
+    SplatFrame s;
+    s.sh_degree = 0;
+    std::uniform_real_distribution<float> u(-1, 1), z(1.5f, 4.0f), o(0.2f, 1.0f);
+    for (int i = 0; i < 300; ++i) {
+      const auto q = synthetic::random_quaternion(rng);
+      const double big = i % 50 == 0 ? 2.0 : 0.3;
+      const auto c = synthetic::covariance(q, {big, 1e-4 * big, 0.05 * big});
+      add_splat(s, {u(rng), u(rng), z(rng)},
+                {float(c[0]), float(c[1]), float(c[2]), float(c[3]), float(c[4]), float(c[5])},
+                o(rng), {0.5f + 0.5f * u(rng), 0.5f + 0.5f * u(rng), 0.5f + 0.5f * u(rng)});
+    }
+    scenes.emplace_back("needles", s);
+  }
+  {
+    // A dense stack in front (most pixels finish early), opacities above 1 (no cut), and
+    // exact depth ties at z = 3.
+    SplatFrame s = random_scene(500, 1, 33, 2.0f, 2.5f);
+    for (std::size_t i = 0; i < s.size(); i += 7) s.opacity[i] = 1.5f;
+    const SplatFrame tied = random_scene(60, 1, 34, 3.0f, 3.0f);
+    for (std::size_t i = 0; i < tied.size(); ++i) copy_splat(tied, i, s);
+    scenes.emplace_back("stack", s);
+  }
+  Camera cam = axis_camera(150, 90, 110);
+  cam.position = {0.05, 0.1, -0.2};
+  for (const auto& [name, s] : scenes) {
+    RenderOptions opt;
+    opt.background = {0.3f, 0.1f, 0.7f};
+    opt.threads = 1;
+    RenderStats stats;
+    opt.stats = &stats;
+    const Image fresh = render(s, cam, opt);
+    opt.stats = nullptr;
+    opt.legacy = true;
+    const Image old = render(s, cam, opt);
+    EXPECT_TRUE(bitwise_equal(fresh, old)) << name << " max diff " << max_diff(fresh, old);
+    opt.legacy = false;
+    opt.threads = 3;
+    EXPECT_TRUE(bitwise_equal(fresh, render(s, cam, opt))) << name;
+    // Not a trivial comparison: the splats cover tiles and change the image.
+    EXPECT_GT(stats.tile_entries, 4 * s.size()) << name;
+    EXPECT_GT(max_diff(fresh, render(SplatFrame{}, cam, opt)), 0.3f) << name;
+  }
+}
+
 // render_distributed with the splats spread four different ways (blocks, round robin, all on
 // the last rank, random), including splats of exactly equal depth: identical to the serial
 // render bit for bit at every rank count.

@@ -29,9 +29,12 @@ step() {  # step NAME TIMEOUT_S COMMAND...: runs, logs to OUT/NAME.log, records 
 nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv >"$OUT/gpu.txt" 2>&1 ||
   echo "nvidia-smi failed: no GPU visible" | tee -a "$OUT/summary.txt"
 step configure 120 cmake -S "$GEN4D_ROOT" -B "$GEN4D_BUILD" -DCMAKE_BUILD_TYPE=Release \
-  -DGEN4D_CUDA=ON -DGEN4D_TORCH=OFF || { echo "configure failed"; exit 1; }
+  -DGEN4D_CUDA=ON || { echo "configure failed"; exit 1; }
 step build 300 cmake --build "$GEN4D_BUILD" -j "$GEN4D_JOBS" --target \
-  test_mpm_gpu bench_mpm bench_elastogen bench_render bench_neural || exit 1
+  test_mpm_gpu bench_mpm bench_elastogen bench_render || exit 1
+# bench_neural needs LibTorch (its same-run baseline); built where the package is installed.
+cmake --build "$GEN4D_BUILD" -j "$GEN4D_JOBS" --target bench_neural >>"$OUT/build.log" 2>&1 ||
+  echo "bench_neural: not built (no LibTorch)" | tee -a "$OUT/summary.txt"
 # Test executables of the gpu label that exist in this tree (each module adds its own).
 gpu_tests=$(cd "$GEN4D_BUILD" && ctest -N -L gpu | awk '/Test +#/ {print $3}' |
   sed 's/_np[0-9]*$//' | sort -u)
@@ -45,7 +48,7 @@ step bench_mpm_8M 150 "$B/bench_mpm" --particles 8000000 --substeps 10 --json "$
 if [ -x "$B/bench_neural" ]; then
   step bench_neural 60 "$B/bench_neural" --weights "$GEN4D_ROOT/inputs/models/mtl/neo_hookean_0.30.h5" --device
 fi
-step bench_elastogen 90 "$B/bench_elastogen" --cells 100
+step bench_elastogen 90 "$B/bench_elastogen" --cells 72
 step bench_render 90 "$B/bench_render"
 echo "GPU check: $([ $status -eq 0 ] && echo passed || echo FAILED); results in $OUT"
 exit $status

@@ -24,15 +24,23 @@ struct RenderStats {
   double sort = 0;    //!< depth order and binning into tiles
   double blend = 0;   //!< per-pixel compositing
   double gather = 0;  //!< distributed: collecting the tiles on rank 0
+  double transfer = 0;           //!< GPU: copying the splats to the device and the image back
   std::size_t visible = 0;       //!< splats that survive culling (this rank's, before exchange)
   std::size_t tile_entries = 0;  //!< (splat, tile) pairs blended by this rank
 };
 
 struct RenderOptions {
   std::array<float, 3> background{0, 0, 0};  //!< colour channels in [0, 1]
-  //! Threads blending tiles (the image does not depend on it). 0: the hardware threads, shared
-  //! among the ranks of a node in render_distributed.
+  //! Host threads of the render (the image does not depend on it). 0: the OpenMP setting
+  //! (OMP_NUM_THREADS; the drivers share the node's cores among its ranks).
   int threads = 0;
+  //! Render on this rank's GPU where there is one (exec::use_device()). The GPU image equals
+  //! the host's up to float rounding (fused multiply-adds, the device's exp); it is the same
+  //! for every rank count and distribution of the splats.
+  bool device = true;
+  //! The host renderer's previous sort and blend (each pixel walking its tile's whole list, a
+  //! comparison sort), kept as the benchmarks' baseline: the same image bit for bit.
+  bool legacy = false;
   RenderStats* stats = nullptr;  //!< when set, receives the phase times
 };
 

@@ -58,21 +58,28 @@ Image render_distributed(MPI_Comm comm, const SplatFrame& local, const Camera& c
   int rank = 0, ranks = 1;
   MPI_Comm_rank(comm, &rank);
   MPI_Comm_size(comm, &ranks);
-  MPI_Comm node;
-  MPI_Comm_split_type(comm, MPI_COMM_TYPE_SHARED, rank, MPI_INFO_NULL, &node);
-  int node_ranks = 1;
-  MPI_Comm_size(node, &node_ranks);
-  MPI_Comm_free(&node);
-  RenderOptions opt = options;
-  opt.threads = detail::thread_count(options, node_ranks);
-  if (ranks == 1) return render(local, camera, opt);
+  if (ranks == 1) return render(local, camera, options);
 
   const detail::View view(camera);
+  const detail::ThreadScope threads(options.threads);
   RenderStats scratch;
   RenderStats& st = options.stats ? *options.stats : scratch;
+  // On a GPU, the same kernels as a serial GPU render project and blend (the sort is
+  // canonical on both), so the image does not depend on the rank count there either.
+  const bool gpu = detail::on_device(options);
   double t0 = now();
   std::vector<detail::Projected> mine;
-  detail::preprocess(local, view, mine, opt.threads);
+#if defined(GEN4D_CUDA)
+  if (gpu) {
+    detail::pointers(local);  // size checks
+    detail::device_renderer().upload(local);
+    const double t = now();
+    st.transfer += t - t0;
+    t0 = t;
+    detail::device_renderer().preprocess(view, mine);
+  }
+#endif
+  if (!gpu) detail::preprocess(local, view, mine);
   st.visible += mine.size();
   double t1 = now();
   st.preprocess += t1 - t0;
@@ -104,14 +111,19 @@ Image render_distributed(MPI_Comm comm, const SplatFrame& local, const Camera& c
   const int row0 = bounds[static_cast<std::size_t>(rank)];
   const int row1 = bounds[static_cast<std::size_t>(rank) + 1];
   std::vector<std::uint32_t> offsets, entries;
-  detail::bin_tiles(received, view, row0, row1, offsets, entries);
+  detail::bin_tiles(received, view, row0, row1, offsets, entries, options.legacy);
   double t3 = now();
   st.sort += t3 - t2;
   st.tile_entries += entries.size();
   auto pixel_row = [&](int tile_row) { return std::min(tile_row * detail::kTile, view.height); };
   const std::size_t row_floats = static_cast<std::size_t>(view.width) * 3;
   std::vector<float> part(static_cast<std::size_t>(pixel_row(row1) - pixel_row(row0)) * row_floats);
-  detail::blend_tiles(received, view, row0, row1, offsets, entries, opt, part.data(), opt.threads);
+#if defined(GEN4D_CUDA)
+  if (gpu)
+    detail::device_renderer().blend(received, view, row0, row1, offsets, entries, options,
+                                    part.data());
+#endif
+  if (!gpu) detail::blend_tiles(received, view, row0, row1, offsets, entries, options, part.data());
   double t4 = now();
   st.blend += t4 - t3;
 

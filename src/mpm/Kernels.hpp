@@ -48,6 +48,20 @@ struct Stencil {
       base[a] = b - start[a];
     }
   }
+
+  //! f(dy, dz, wzy, row) for the 9 rows of three nodes along x (z outer, y inner): the row's
+  //! offsets from the particle (m), its y-z weight and the index of its first node in a box of
+  //! gx x gy nodes.
+  template <class F>
+  GEN4D_HD void for_each_row(double dx, long gx, long gy, const F& f) const {
+    for (int c = 0; c < 3; ++c) {
+      const double dz = (c - fx[2]) * dx;
+      for (int b = 0; b < 3; ++b) {
+        const double dy = (b - fx[1]) * dx;
+        f(dy, dz, w[2][c] * w[1][b], ((base[2] + c) * gy + (base[1] + b)) * gx + base[0]);
+      }
+    }
+  }
 };
 
 //! The affine matrix P2G transfers: C blended towards its skew part by r (RPIC damping), or
@@ -111,29 +125,22 @@ GEN4D_HD inline void p2g_particle(const P2GArgs& a, long i, double* grid, const 
     inv_q[4 * o + 1] = inv_q[4 * o + 2] = inv_q[4 * o + 3] = a.inv_qp;
     dxa[o] = (o - st.fx[0]) * dx;
   }
-  for (int c = 0; c < 3; ++c) {
-    const double dz = (c - st.fx[2]) * dx;
-    for (int b = 0; b < 3; ++b) {
-      const double dy = (b - st.fx[1]) * dx;
-      const double wzy = st.w[2][c] * st.w[1][b];
-      const long row = ((st.base[2] + c) * a.gy + (st.base[1] + b)) * a.gx + st.base[0];
-      // Affine momentum at this row: mv + A (dpos), dpos = (dx0, dy, dz).
-      double r[3];
-      for (int d = 0; d < 3; ++d) r[d] = mv[d] + A[3 * d + 1] * dy + A[3 * d + 2] * dz;
-      double weight[12], value[12], q[12];
-      for (int o = 0; o < 3; ++o) {
-        weight[4 * o] = weight[4 * o + 1] = weight[4 * o + 2] = weight[4 * o + 3] =
-            wzy * st.w[0][o];
-        value[4 * o] = m;
-        value[4 * o + 1] = r[0] + A[0] * dxa[o];
-        value[4 * o + 2] = r[1] + A[3] * dxa[o];
-        value[4 * o + 3] = r[2] + A[6] * dxa[o];
-      }
-      GEN4D_SIMD
-      for (int k = 0; k < 12; ++k) q[k] = round_int(weight[k] * value[k] * inv_q[k]);
-      add(&grid[4 * row], q);
+  st.for_each_row(dx, a.gx, a.gy, [&](double dy, double dz, double wzy, long row) {
+    // Affine momentum at this row: mv + A (dpos), dpos = (dx0, dy, dz).
+    double r[3];
+    for (int d = 0; d < 3; ++d) r[d] = mv[d] + A[3 * d + 1] * dy + A[3 * d + 2] * dz;
+    double weight[12], value[12], q[12];
+    for (int o = 0; o < 3; ++o) {
+      weight[4 * o] = weight[4 * o + 1] = weight[4 * o + 2] = weight[4 * o + 3] = wzy * st.w[0][o];
+      value[4 * o] = m;
+      value[4 * o + 1] = r[0] + A[0] * dxa[o];
+      value[4 * o + 2] = r[1] + A[3] * dxa[o];
+      value[4 * o + 3] = r[2] + A[6] * dxa[o];
     }
-  }
+    GEN4D_SIMD
+    for (int k = 0; k < 12; ++k) q[k] = round_int(weight[k] * value[k] * inv_q[k]);
+    add(&grid[4 * row], q);
+  });
 }
 
 //! A grid boundary condition of one substep (Solver bakes BoundaryConfig into these).
@@ -261,26 +268,20 @@ GEN4D_HD inline void g2p_particle(const G2PArgs& a, long i) {
   const double dx = a.dx, inv_dx = 1.0 / dx;
   const Stencil st(&a.x[3 * i], a.lo, dx, a.start);
   double vn[3] = {0, 0, 0}, B[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
-  for (int c = 0; c < 3; ++c) {
-    const double dz = (c - st.fx[2]) * dx;
-    for (int b = 0; b < 3; ++b) {
-      const double dy = (b - st.fx[1]) * dx;
-      const double wzy = st.w[2][c] * st.w[1][b];
-      const long row = ((st.base[2] + c) * a.gy + (st.base[1] + b)) * a.gx + st.base[0];
-      for (int o = 0; o < 3; ++o) {
-        const double dxa = (o - st.fx[0]) * dx;
-        const double weight = wzy * st.w[0][o];
-        const double* vi = &a.vel[3 * (row + o)];
-        for (int d = 0; d < 3; ++d) {
-          const double wv = weight * vi[d];
-          vn[d] += wv;
-          B[3 * d + 0] += wv * dxa;
-          B[3 * d + 1] += wv * dy;
-          B[3 * d + 2] += wv * dz;
-        }
+  st.for_each_row(dx, a.gx, a.gy, [&](double dy, double dz, double wzy, long row) {
+    for (int o = 0; o < 3; ++o) {
+      const double dxa = (o - st.fx[0]) * dx;
+      const double weight = wzy * st.w[0][o];
+      const double* vi = &a.vel[3 * (row + o)];
+      for (int d = 0; d < 3; ++d) {
+        const double wv = weight * vi[d];
+        vn[d] += wv;
+        B[3 * d + 0] += wv * dxa;
+        B[3 * d + 1] += wv * dy;
+        B[3 * d + 2] += wv * dz;
       }
     }
-  }
+  });
   const double cs = 4.0 * inv_dx * inv_dx;
   double* C = &a.C[9 * i];
   for (int k = 0; k < 9; ++k) C[k] = cs * B[k];
