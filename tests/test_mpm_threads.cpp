@@ -63,15 +63,21 @@ TEST(Svd3Batch, EqualsTheScalarSvdBitForBit) {
       if (i % 5 == 3)
         for (int k = 0; k < 9; ++k) F[9 * i + k] *= 1e-200;  // tiny
     }
-    materials::svd3_batch(n, F.data(), U.data(), S.data(), V.data());
-    for (std::size_t i = 0; i < n; ++i) {
-      materials::Mat3 f, u, v;
-      materials::Vec3 s;
-      std::memcpy(f.a, &F[9 * i], sizeof f.a);
-      materials::svd3(f, u, s, v);
-      EXPECT_EQ(std::memcmp(u.a, &U[9 * i], sizeof u.a), 0) << "n " << n << " i " << i;
-      EXPECT_EQ(std::memcmp(v.a, &V[9 * i], sizeof v.a), 0) << "n " << n << " i " << i;
-      EXPECT_EQ(std::memcmp(s.v, &S[3 * i], sizeof s.v), 0) << "n " << n << " i " << i;
+    for (int isa = 0; isa <= static_cast<int>(materials::svd3_batch_best_isa()); ++isa) {
+      materials::svd3_batch(n, F.data(), U.data(), S.data(), V.data(),
+                            static_cast<materials::SvdIsa>(isa));
+      for (std::size_t i = 0; i < n; ++i) {
+        materials::Mat3 f, u, v;
+        materials::Vec3 s;
+        std::memcpy(f.a, &F[9 * i], sizeof f.a);
+        materials::svd3(f, u, s, v);
+        EXPECT_EQ(std::memcmp(u.a, &U[9 * i], sizeof u.a), 0)
+            << "isa " << isa << " n " << n << " i " << i;
+        EXPECT_EQ(std::memcmp(v.a, &V[9 * i], sizeof v.a), 0)
+            << "isa " << isa << " n " << n << " i " << i;
+        EXPECT_EQ(std::memcmp(s.v, &S[3 * i], sizeof s.v), 0)
+            << "isa " << isa << " n " << n << " i " << i;
+      }
     }
   }
 }

@@ -202,9 +202,16 @@ GEN4D_HD inline bool polar_rotation_newton(const Mat3& F, Mat3& R) {
 }
 
 //! svd3 over n row-major 3x3 matrices stored back to back (9 doubles each, 3 per sigma),
-//! several matrices at a time in vector lanes (AVX2 where the CPU has it, else SSE2). Each
-//! result equals svd3's for that matrix in every bit (the lanes run svd3's operations, without
-//! fused multiply-adds), whatever its neighbours in the batch. Host only (Svd3Batch.cpp).
+//! several matrices at a time in vector lanes: 8 with AVX-512, 4 with AVX2 or SSE2, the best
+//! the CPU has. Each result equals svd3's for that matrix in every bit (the lanes run svd3's
+//! operations, without fused multiply-adds), whatever its neighbours in the batch and whichever
+//! instruction set. Host only (Svd3Batch.cpp).
 void svd3_batch(std::size_t n, const double* F, double* U, double* sigma, double* V);
+
+enum class SvdIsa { kSse2 = 0, kAvx2 = 1, kAvx512 = 2 };
+//! The best instruction set svd3_batch can use on this CPU.
+SvdIsa svd3_batch_best_isa();
+//! svd3_batch on `isa` (or the best one below it the CPU has): for tests and benchmarks.
+void svd3_batch(std::size_t n, const double* F, double* U, double* sigma, double* V, SvdIsa isa);
 
 }  // namespace gen4d::materials
