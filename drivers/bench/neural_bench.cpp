@@ -174,8 +174,11 @@ int run(const Options& o) {
       nt::torch_forward(w, n, sigma.data(), tp.data(), tg.data(), nullptr);
     });
     if (threads > 1) {
-      fused_eval_t = rate(o.points, o.seconds,
-                          [&] { net.evaluate(n, sigma.data(), psi.data(), grad.data()); });
+      // LibTorch's set_threads sets OpenMP's count too: ask for the threads explicitly.
+      fused_eval_t = with_threads(threads, [&] {
+        return rate(o.points, o.seconds,
+                    [&] { net.evaluate(n, sigma.data(), psi.data(), grad.data()); });
+      });
       nt::set_threads(threads);
       torch_grad_t = rate(o.points, o.seconds, [&] {
         nt::torch_forward(w, n, sigma.data(), tp.data(), tg.data(), nullptr);
@@ -191,11 +194,14 @@ int run(const Options& o) {
   const std::size_t b0 = n * rank / ranks, b1 = n * (rank + 1) / ranks;
   std::vector<double> my_psi(b1 - b0), my_grad(3 * (b1 - b0));
   auto share = [&] { net.evaluate(b1 - b0, sigma.data() + 3 * b0, my_psi.data(), my_grad.data()); };
-  share();  // warm-up
-  MPI_Barrier(MPI_COMM_WORLD);
-  const double t0 = now();
-  for (long r = 0; r < reps; ++r) share();
-  double el = now() - t0, el_max = 0;
+  const double el = with_threads(threads, [&] {
+    share();  // warm-up
+    MPI_Barrier(MPI_COMM_WORLD);
+    const double t0 = now();
+    for (long r = 0; r < reps; ++r) share();
+    return now() - t0;
+  });
+  double el_max = 0;
   MPI_Reduce(&el, &el_max, 1, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
   if (rank != 0) return 0;
   const double all_eval = static_cast<double>(reps) * static_cast<double>(n) / el_max;
