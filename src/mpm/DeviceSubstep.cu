@@ -39,6 +39,13 @@ struct AtomicAdd {
   }
 };
 
+//! Copies n host values into d and returns d's device pointer.
+template <class T>
+T* stage(DeviceArray<T>& d, const T* host, std::size_t n) {
+  d.upload(host, n);
+  return d.data();
+}
+
 void sync(const char* what) {
   exec::cuda_check(cudaGetLastError(), what);
   exec::cuda_check(cudaDeviceSynchronize(), what);
@@ -48,23 +55,16 @@ void sync(const char* what) {
 
 void p2g(Workspace& w, const kernels::P2GArgs& args, long n, double* grid, long nodes) {
   const auto un = static_cast<std::size_t>(n);
-  w.x.upload(args.x, 3 * un);
-  w.v.upload(args.v, 3 * un);
-  w.C.upload(args.C, 9 * un);
-  w.tau.upload(args.tau, 9 * un);
-  w.mass.upload(args.mass, un);
-  w.vol0.upload(args.vol0, un);
-  w.flag.upload(args.flag, un);
+  kernels::P2GArgs a = args;
+  a.x = stage(w.x, args.x, 3 * un);
+  a.v = stage(w.v, args.v, 3 * un);
+  a.C = stage(w.C, args.C, 9 * un);
+  a.tau = stage(w.tau, args.tau, 9 * un);
+  a.mass = stage(w.mass, args.mass, un);
+  a.vol0 = stage(w.vol0, args.vol0, un);
+  a.flag = stage(w.flag, args.flag, un);
   w.pm.resize(4 * static_cast<std::size_t>(nodes));
   w.pm.zero();
-  kernels::P2GArgs a = args;
-  a.x = w.x.data();
-  a.v = w.v.data();
-  a.C = w.C.data();
-  a.tau = w.tau.data();
-  a.mass = w.mass.data();
-  a.vol0 = w.vol0.data();
-  a.flag = w.flag.data();
   double* g = w.pm.data();
   exec::device_for(n, [=] __device__(long i) { kernels::p2g_particle(a, i, g, AtomicAdd{}); });
   sync("mpm p2g");
@@ -73,13 +73,11 @@ void p2g(Workspace& w, const kernels::P2GArgs& args, long n, double* grid, long 
 
 void grid_update(Workspace& w, const kernels::GridArgs& args, long nodes) {
   const auto un = static_cast<std::size_t>(nodes);
-  w.pm.upload(args.pm, 4 * un);
   w.vel.resize(3 * un);
-  w.cond.upload(args.cond, static_cast<std::size_t>(args.ncond));
   kernels::GridArgs a = args;
-  a.pm = w.pm.data();
+  a.pm = stage(w.pm, args.pm, 4 * un);
   a.vel = w.vel.data();
-  a.cond = w.cond.data();
+  a.cond = stage(w.cond, args.cond, static_cast<std::size_t>(args.ncond));
   exec::device_for(nodes, [=] __device__(long k) { kernels::grid_node(a, k); });
   sync("mpm grid update");
   w.vel.download(args.vel, 3 * un);
@@ -87,22 +85,13 @@ void grid_update(Workspace& w, const kernels::GridArgs& args, long nodes) {
 
 void g2p(Workspace& w, const kernels::G2PArgs& args, long n, long nodes) {
   const auto un = static_cast<std::size_t>(n);
-  w.x.upload(args.x, 3 * un);
-  w.v.resize(3 * un);
-  w.C.resize(9 * un);
-  w.F.upload(args.F, 9 * un);
-  w.flag.upload(args.flag, un);
-  w.vel.upload(args.vel, 3 * static_cast<std::size_t>(nodes));
   kernels::G2PArgs a = args;
-  a.x = w.x.data();
-  a.v = w.v.data();
-  a.C = w.C.data();
-  a.F = w.F.data();
-  a.flag = w.flag.data();
-  a.vel = w.vel.data();
-  // Frozen particles keep their v and C: start from the host's.
-  w.v.upload(args.v, 3 * un);
-  w.C.upload(args.C, 9 * un);
+  a.x = stage(w.x, args.x, 3 * un);
+  a.v = stage(w.v, args.v, 3 * un);  // frozen particles keep their v and C
+  a.C = stage(w.C, args.C, 9 * un);
+  a.F = stage(w.F, args.F, 9 * un);
+  a.flag = stage(w.flag, args.flag, un);
+  a.vel = stage(w.vel, args.vel, 3 * static_cast<std::size_t>(nodes));
   exec::device_for(n, [=] __device__(long i) { kernels::g2p_particle(a, i); });
   sync("mpm g2p");
   w.x.download(args.x, 3 * un);
