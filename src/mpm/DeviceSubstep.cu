@@ -28,14 +28,12 @@ namespace {
 
 //! Order-independent: every value is an integer multiple of the quantum.
 struct AtomicAdd {
-  GEN4D_HD void operator()(double* g, const double* q) const {
-    for (int k = 0; k < 12; ++k) {
+  GEN4D_HD void operator()(double* g, const kernels::Quad& q) const {
 #if defined(__CUDA_ARCH__)
-      atomicAdd(g + k, q[k]);
+    for (int k = 0; k < 4; ++k) atomicAdd(g + k, q[k]);
 #else
-      g[k] += q[k];
+    kernels::add_quad(g, q);
 #endif
-    }
   }
 };
 

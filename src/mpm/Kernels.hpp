@@ -19,9 +19,66 @@
 
 namespace gen4d::mpm::kernels {
 
+// Four doubles worked on together: one node's (mass, momentum x, y, z) in P2G, a velocity (and
+// a spare lane) in G2P. On the host a GCC vector, so one AVX2 instruction (two SSE2 ones) does
+// a node; on a GPU four scalars. Lane by lane, each operation rounds as the scalar one did.
+#if defined(__CUDACC__)
+struct Quad {
+  double l[4];
+  GEN4D_HD double operator[](int k) const { return l[k]; }
+};
+GEN4D_HD inline Quad operator+(const Quad& a, const Quad& b) {
+  return {{a.l[0] + b.l[0], a.l[1] + b.l[1], a.l[2] + b.l[2], a.l[3] + b.l[3]}};
+}
+GEN4D_HD inline Quad operator-(const Quad& a, const Quad& b) {
+  return {{a.l[0] - b.l[0], a.l[1] - b.l[1], a.l[2] - b.l[2], a.l[3] - b.l[3]}};
+}
+GEN4D_HD inline Quad operator*(const Quad& a, const Quad& b) {
+  return {{a.l[0] * b.l[0], a.l[1] * b.l[1], a.l[2] * b.l[2], a.l[3] * b.l[3]}};
+}
+GEN4D_HD inline Quad operator*(const Quad& a, double s) {
+  return {{a.l[0] * s, a.l[1] * s, a.l[2] * s, a.l[3] * s}};
+}
+GEN4D_HD inline Quad operator+(const Quad& a, double s) {
+  return {{a.l[0] + s, a.l[1] + s, a.l[2] + s, a.l[3] + s}};
+}
+GEN4D_HD inline Quad operator-(const Quad& a, double s) {
+  return {{a.l[0] - s, a.l[1] - s, a.l[2] - s, a.l[3] - s}};
+}
+GEN4D_HD inline Quad& operator+=(Quad& a, const Quad& b) { return a = a + b; }
+GEN4D_HD inline Quad make_quad(double a, double b, double c, double d) { return {{a, b, c, d}}; }
+//! p[0..2] and a zero lane (reads three values).
+GEN4D_HD inline Quad load_xyz(const double* p) { return {{p[0], p[1], p[2], 0.0}}; }
+//! g[0..3] += q, plain (no other thread touches g).
+GEN4D_HD inline void add_quad(double* g, const Quad& q) {
+  for (int k = 0; k < 4; ++k) g[k] += q.l[k];
+}
+#else
+// Passed by value only between inlined functions: no ABI to keep.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpsabi"
+typedef double Quad __attribute__((vector_size(32)));
+inline Quad make_quad(double a, double b, double c, double d) { return Quad{a, b, c, d}; }
+//! p[0..2] in lanes 0-2; lane 3 holds p[3], which must be readable (arrays padded by one).
+inline Quad load_xyz(const double* p) {
+  Quad q;
+  __builtin_memcpy(&q, p, sizeof q);
+  return q;
+}
+//! g[0..3] += q, plain (no other thread touches g).
+inline void add_quad(double* g, const Quad& q) {
+  Quad t;
+  __builtin_memcpy(&t, g, sizeof t);
+  t += q;
+  __builtin_memcpy(g, &t, sizeof t);
+}
+#pragma GCC diagnostic pop
+#endif
+
 // Adding and subtracting 1.5 * 2^52 rounds a double of magnitude below 2^51 to the nearest
 // integer (ties to even) in the default rounding mode; cheaper than std::nearbyint.
-GEN4D_HD inline double round_int(double c) {
+template <class T>
+GEN4D_HD inline T round_int(T c) {
   const double k = 6755399441055744.0;
   return (c + k) - k;
 }
@@ -103,9 +160,9 @@ GEN4D_HD inline void p2g_bound(const P2GArgs& a, long i, double* bound) {
   bound[1] = m * mv + 3 * s * 1.5 * a.dx;
 }
 
-//! Scatters particle i into `grid` (4 values per node) through add(g, q), which adds the 12
-//! values q to the 12 consecutive grid values at g (three neighbouring nodes of a row): plain
-//! additions where no other thread touches those nodes, atomic ones otherwise.
+//! Scatters particle i into `grid` (4 values per node) through add(g, q), which adds the 4
+//! values q (mass, momentum x, y, z, in quanta) to the node at g: a plain addition where no
+//! other thread touches that node, an atomic one otherwise.
 template <class Add>
 GEN4D_HD inline void p2g_particle(const P2GArgs& a, long i, double* grid, const Add& add) {
   if (a.flag[i] & 1) return;
@@ -113,33 +170,23 @@ GEN4D_HD inline void p2g_particle(const P2GArgs& a, long i, double* grid, const 
   const double dx = a.dx;
   const double m = a.mass[i];
   const double s = a.stress_scale * a.vol0[i];
-  double A[9], mv[3], C[9];
+  double A[9], C[9];
   transfer_affine(&a.C[9 * i], a.rpic, C);
   for (int k = 0; k < 9; ++k) A[k] = s * a.tau[9 * i + k] + m * C[k];
-  for (int d = 0; d < 3; ++d) mv[d] = m * a.v[3 * i + d];
-  // Per row of three nodes, 12 values: (mass, momentum x, y, z) per node, each rounded to
-  // its quantum. Locals, so that the grid stores cannot alias them.
-  double inv_q[12], dxa[3];
-  for (int o = 0; o < 3; ++o) {
-    inv_q[4 * o] = a.inv_qm;
-    inv_q[4 * o + 1] = inv_q[4 * o + 2] = inv_q[4 * o + 3] = a.inv_qp;
-    dxa[o] = (o - st.fx[0]) * dx;
-  }
+  // Lanes (mass, momentum x, y, z); the mass lane's affine terms are zero, so it stays m.
+  const Quad mv = make_quad(m, m * a.v[3 * i], m * a.v[3 * i + 1], m * a.v[3 * i + 2]);
+  const Quad ax = make_quad(0, A[0], A[3], A[6]), ay = make_quad(0, A[1], A[4], A[7]),
+             az = make_quad(0, A[2], A[5], A[8]);
+  const Quad inv_q = make_quad(a.inv_qm, a.inv_qp, a.inv_qp, a.inv_qp);
+  double dxa[3];
+  for (int o = 0; o < 3; ++o) dxa[o] = (o - st.fx[0]) * dx;
   st.for_each_row(dx, a.gx, a.gy, [&](double dy, double dz, double wzy, long row) {
-    // Affine momentum at this row: mv + A (dpos), dpos = (dx0, dy, dz).
-    double r[3];
-    for (int d = 0; d < 3; ++d) r[d] = mv[d] + A[3 * d + 1] * dy + A[3 * d + 2] * dz;
-    double weight[12], value[12], q[12];
+    // Affine momentum at the node: mv + A (dx0, dy, dz), each value rounded to its quantum.
+    const Quad r = mv + ay * dy + az * dz;
     for (int o = 0; o < 3; ++o) {
-      weight[4 * o] = weight[4 * o + 1] = weight[4 * o + 2] = weight[4 * o + 3] = wzy * st.w[0][o];
-      value[4 * o] = m;
-      value[4 * o + 1] = r[0] + A[0] * dxa[o];
-      value[4 * o + 2] = r[1] + A[3] * dxa[o];
-      value[4 * o + 3] = r[2] + A[6] * dxa[o];
+      const double weight = wzy * st.w[0][o];
+      add(&grid[4 * (row + o)], round_int((r + ax * dxa[o]) * weight * inv_q));
     }
-    GEN4D_SIMD
-    for (int k = 0; k < 12; ++k) q[k] = round_int(weight[k] * value[k] * inv_q[k]);
-    add(&grid[4 * row], q);
   });
 }
 
@@ -256,7 +303,7 @@ GEN4D_HD inline void advance_deformation(const double* C, double dt, double* F) 
 struct G2PArgs {
   double *x, *v, *C, *F;
   const std::uint8_t* flag;
-  const double* vel;  //!< 3 per ghosted node
+  const double* vel;  //!< 3 per ghosted node, and one spare double at the end (see load_xyz)
   double lo[3], dx, dt;
   long start[3], gx, gy;
   bool advance;  //!< also move x and F (false when particle conditions act in between)
@@ -267,25 +314,28 @@ GEN4D_HD inline void g2p_particle(const G2PArgs& a, long i) {
   if (a.flag[i] & 1) return;
   const double dx = a.dx, inv_dx = 1.0 / dx;
   const Stencil st(&a.x[3 * i], a.lo, dx, a.start);
-  double vn[3] = {0, 0, 0}, B[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  // Lanes x, y, z (the fourth idles): the velocity and B's columns (dx, dy, dz) summed node by
+  // node in the stencil's order.
+  Quad vn = make_quad(0, 0, 0, 0), b0 = vn, b1 = vn, b2 = vn;
+  double dxa[3];
+  for (int o = 0; o < 3; ++o) dxa[o] = (o - st.fx[0]) * dx;
   st.for_each_row(dx, a.gx, a.gy, [&](double dy, double dz, double wzy, long row) {
     for (int o = 0; o < 3; ++o) {
-      const double dxa = (o - st.fx[0]) * dx;
-      const double weight = wzy * st.w[0][o];
-      const double* vi = &a.vel[3 * (row + o)];
-      for (int d = 0; d < 3; ++d) {
-        const double wv = weight * vi[d];
-        vn[d] += wv;
-        B[3 * d + 0] += wv * dxa;
-        B[3 * d + 1] += wv * dy;
-        B[3 * d + 2] += wv * dz;
-      }
+      const Quad wv = load_xyz(&a.vel[3 * (row + o)]) * (wzy * st.w[0][o]);
+      vn += wv;
+      b0 += wv * dxa[o];
+      b1 += wv * dy;
+      b2 += wv * dz;
     }
   });
   const double cs = 4.0 * inv_dx * inv_dx;
   double* C = &a.C[9 * i];
-  for (int k = 0; k < 9; ++k) C[k] = cs * B[k];
-  for (int d = 0; d < 3; ++d) a.v[3 * i + d] = vn[d];
+  for (int d = 0; d < 3; ++d) {
+    C[3 * d] = cs * b0[d];
+    C[3 * d + 1] = cs * b1[d];
+    C[3 * d + 2] = cs * b2[d];
+    a.v[3 * i + d] = vn[d];
+  }
   if (!a.advance) return;
   for (int d = 0; d < 3; ++d) a.x[3 * i + d] += a.dt * vn[d];
   advance_deformation(C, a.dt, &a.F[9 * i]);

@@ -8,6 +8,7 @@
 
 #include "core/Device.hpp"
 #include "core/ParallelFor.hpp"
+#include "mpm/HostKernels.hpp"
 #include "mpm/Kernels.hpp"
 #include "parallel/Reduce.hpp"
 
@@ -111,7 +112,7 @@ void Solver::distribute(Particles local) {
 #if defined(GEN4D_CUDA)
   if (opt_.allow_device && exec::use_device() && !device_) device_ = device::make_workspace();
 #endif
-  vel_.assign(3 * ng, 0.0);
+  vel_.assign(3 * ng + 1, 0.0);  // one spare: G2P loads a node's velocity as four doubles
 
   // Ranges of the sequential-release conditions over the initial particles.
   release_range_.assign(bcs_.size(), {0.0, 0.0});
@@ -243,12 +244,8 @@ void Solver::p2g(double dt) {
     return;
   }
 #endif
-  const auto plain_add = [](double* g, const double* q) {
-    GEN4D_SIMD
-    for (int k = 0; k < 12; ++k) g[k] += q[k];
-  };
   if (exec::host_threads() == 1 || n < exec::kSerialBelow) {
-    for (long i = 0; i < n; ++i) kernels::p2g_particle(a, i, grid, plain_add);
+    host::p2g(a, nullptr, 0, n, grid);
     return;
   }
   // Threads scatter slabs of base cells along z, two cells thick: slabs 2 apart touch disjoint
@@ -273,8 +270,7 @@ void Solver::p2g(double dt) {
   for (long parity = 0; parity < 2; ++parity)
     exec::parallel_for_dynamic((slabs - parity + 1) / 2, [&](long k) {
       const long s = parity + 2 * k;
-      for (long q = slab_start_[s]; q < slab_start_[s + 1]; ++q)
-        kernels::p2g_particle(a, order_[static_cast<std::size_t>(q)], grid, plain_add);
+      host::p2g(a, order_.data(), slab_start_[s], slab_start_[s + 1], grid);
     });
 }
 
@@ -393,7 +389,7 @@ void Solver::g2p(double t, double dt) {
     device::g2p(*device_, a, n, static_cast<long>(gb.size()));
   else
 #endif
-    exec::parallel_for(n, [&](long i) { kernels::g2p_particle(a, i); });
+    exec::parallel_blocks(n, [&](long b, long e) { host::g2p(a, b, e); });
   if (a.advance) return;
   particle_conditions(t, dt);
   exec::parallel_for(n, [&](long i) {

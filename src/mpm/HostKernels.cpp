@@ -1,0 +1,68 @@
+// Built with -ffp-contract=off (src/CMakeLists.txt): the AVX2 copies round every product and sum
+// on its own, as the baseline copies and a GPU (--fmad=false) do.
+#include "mpm/HostKernels.hpp"
+
+#include <cstdlib>
+#include <cstring>
+
+namespace gen4d::mpm::host {
+
+namespace {
+
+inline void p2g_loop(const kernels::P2GArgs& a, const long* order, long b, long e, double* grid) {
+  const auto add = [](double* g, const kernels::Quad& q) { kernels::add_quad(g, q); };
+  if (order)
+    for (long q = b; q < e; ++q) kernels::p2g_particle(a, order[q], grid, add);
+  else
+    for (long i = b; i < e; ++i) kernels::p2g_particle(a, i, grid, add);
+}
+
+inline void g2p_loop(const kernels::G2PArgs& a, long b, long e) {
+  for (long i = b; i < e; ++i) kernels::g2p_particle(a, i);
+}
+
+__attribute__((target("avx2"), flatten)) void p2g_avx2(const kernels::P2GArgs& a,
+                                                       const long* order, long b, long e,
+                                                       double* grid) {
+  p2g_loop(a, order, b, e, grid);
+}
+
+__attribute__((flatten)) void p2g_baseline(const kernels::P2GArgs& a, const long* order, long b,
+                                           long e, double* grid) {
+  p2g_loop(a, order, b, e, grid);
+}
+
+__attribute__((target("avx2"), flatten)) void g2p_avx2(const kernels::G2PArgs& a, long b, long e) {
+  g2p_loop(a, b, e);
+}
+
+__attribute__((flatten)) void g2p_baseline(const kernels::G2PArgs& a, long b, long e) {
+  g2p_loop(a, b, e);
+}
+
+}  // namespace
+
+Isa best_isa() {
+  static const Isa best = [] {
+    const char* env = std::getenv("GEN4D_MPM_ISA");
+    if (env && std::strcmp(env, "baseline") == 0) return Isa::kBaseline;
+    return __builtin_cpu_supports("avx2") ? Isa::kAvx2 : Isa::kBaseline;
+  }();
+  return best;
+}
+
+void p2g(const kernels::P2GArgs& a, const long* order, long b, long e, double* grid, Isa isa) {
+  if (isa == Isa::kAvx2 && __builtin_cpu_supports("avx2"))
+    p2g_avx2(a, order, b, e, grid);
+  else
+    p2g_baseline(a, order, b, e, grid);
+}
+
+void g2p(const kernels::G2PArgs& a, long b, long e, Isa isa) {
+  if (isa == Isa::kAvx2 && __builtin_cpu_supports("avx2"))
+    g2p_avx2(a, b, e);
+  else
+    g2p_baseline(a, b, e);
+}
+
+}  // namespace gen4d::mpm::host

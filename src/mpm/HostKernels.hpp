@@ -1,0 +1,23 @@
+//! The host's loops over the MPM kernels (Kernels.hpp), compiled per instruction set: the AVX2
+//! copy runs a node's four values in one instruction. Every copy rounds as the scalar kernels
+//! do (no fused multiply-adds), so the results are the same bits on any CPU.
+#pragma once
+
+#include "mpm/Kernels.hpp"
+
+namespace gen4d::mpm::host {
+
+enum class Isa { kBaseline = 0, kAvx2 = 1 };
+
+//! The best the CPU has; GEN4D_MPM_ISA=baseline forces the portable copy.
+Isa best_isa();
+
+//! P2G of particles order[b..e) (or b..e when `order` is null) into `grid`, plain additions:
+//! the caller makes sure no other thread touches the same nodes.
+void p2g(const kernels::P2GArgs& a, const long* order, long b, long e, double* grid,
+         Isa isa = best_isa());
+
+//! G2P of particles b..e.
+void g2p(const kernels::G2PArgs& a, long b, long e, Isa isa = best_isa());
+
+}  // namespace gen4d::mpm::host
