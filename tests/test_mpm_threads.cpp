@@ -88,7 +88,7 @@ TEST(MpmHostKernels, EveryInstructionSetGivesTheSameBits) {
     const auto x0 = x, v0 = v, C0 = C, F0 = F;
     std::vector<double> grid(4 * nodes * nodes * nodes, 0.0);
     mpm::host::p2g(a, nullptr, 0, n, grid.data(), static_cast<mpm::host::Isa>(isa));
-    mpm::host::g2p(b, 0, n, static_cast<mpm::host::Isa>(isa));
+    mpm::host::g2p(b, 0, n, nullptr, nullptr, static_cast<mpm::host::Isa>(isa));
     grids.push_back(grid);
     std::vector<double> state = x;
     for (const auto* arr : {&v, &C, &F}) state.insert(state.end(), arr->begin(), arr->end());

@@ -17,8 +17,15 @@ inline void p2g_loop(const kernels::P2GArgs& a, const long* order, long b, long 
     for (long i = b; i < e; ++i) kernels::p2g_particle(a, i, grid, add);
 }
 
-inline void g2p_loop(const kernels::G2PArgs& a, long b, long e) {
-  for (long i = b; i < e; ++i) kernels::g2p_particle(a, i);
+inline void g2p_loop(const kernels::G2PArgs& a, long b, long e, const kernels::GuardArgs* guard,
+                     std::uint8_t* status) {
+  if (guard)
+    for (long i = b; i < e; ++i) {
+      kernels::g2p_particle(a, i);
+      status[i] = kernels::guard_particle(*guard, i);
+    }
+  else
+    for (long i = b; i < e; ++i) kernels::g2p_particle(a, i);
 }
 
 __attribute__((target("avx2"), flatten)) void p2g_avx2(const kernels::P2GArgs& a,
@@ -32,12 +39,15 @@ __attribute__((flatten)) void p2g_baseline(const kernels::P2GArgs& a, const long
   p2g_loop(a, order, b, e, grid);
 }
 
-__attribute__((target("avx2"), flatten)) void g2p_avx2(const kernels::G2PArgs& a, long b, long e) {
-  g2p_loop(a, b, e);
+__attribute__((target("avx2"), flatten)) void g2p_avx2(const kernels::G2PArgs& a, long b, long e,
+                                                       const kernels::GuardArgs* guard,
+                                                       std::uint8_t* status) {
+  g2p_loop(a, b, e, guard, status);
 }
 
-__attribute__((flatten)) void g2p_baseline(const kernels::G2PArgs& a, long b, long e) {
-  g2p_loop(a, b, e);
+__attribute__((flatten)) void g2p_baseline(const kernels::G2PArgs& a, long b, long e,
+                                           const kernels::GuardArgs* guard, std::uint8_t* status) {
+  g2p_loop(a, b, e, guard, status);
 }
 
 }  // namespace
@@ -58,11 +68,13 @@ void p2g(const kernels::P2GArgs& a, const long* order, long b, long e, double* g
     p2g_baseline(a, order, b, e, grid);
 }
 
-void g2p(const kernels::G2PArgs& a, long b, long e, Isa isa) {
+void g2p(const kernels::G2PArgs& a, long b, long e, const kernels::GuardArgs* guard,
+         std::uint8_t* status, Isa isa) {
+  if (!a.advance) guard = nullptr;
   if (isa == Isa::kAvx2 && __builtin_cpu_supports("avx2"))
-    g2p_avx2(a, b, e);
+    g2p_avx2(a, b, e, guard, status);
   else
-    g2p_baseline(a, b, e);
+    g2p_baseline(a, b, e, guard, status);
 }
 
 }  // namespace gen4d::mpm::host

@@ -17,7 +17,9 @@ Isa best_isa();
 void p2g(const kernels::P2GArgs& a, const long* order, long b, long e, double* grid,
          Isa isa = best_isa());
 
-//! G2P of particles b..e.
-void g2p(const kernels::G2PArgs& a, long b, long e, Isa isa = best_isa());
+//! G2P of particles b..e; with `guard` (and a.advance), each particle's guard_particle status
+//! right after its move, into status[i].
+void g2p(const kernels::G2PArgs& a, long b, long e, const kernels::GuardArgs* guard = nullptr,
+         std::uint8_t* status = nullptr, Isa isa = best_isa());
 
 }  // namespace gen4d::mpm::host

@@ -152,14 +152,12 @@ void Particles::sort_by_id() {
   permute_rows(extra, extra_width, order);
 }
 
-std::size_t redistribute(MPI_Comm comm, Particles& p,
-                         const std::function<int(std::size_t)>& owner) {
+std::size_t redistribute(MPI_Comm comm, Particles& p, const std::vector<int>& dest) {
   int size = 1;
   MPI_Comm_size(comm, &size);
   if (size == 1) return 0;
-  std::vector<int> dest(p.size());
-  for (std::size_t i = 0; i < dest.size(); ++i) dest[i] = owner(i);
   parallel::RowExchange ex;
+  ex.fill_gaps_from_end();
   ex.add(p.id, 1).add(p.x, 3).add(p.v, 3).add(p.C, 9).add(p.F, 9).add(p.state, kStateSize);
   ex.add(p.mass, 1).add(p.vol0, 1).add(p.flag, 1).add(p.material, 1).add(p.extra, p.extra_width);
   return ex.exchange(comm, dest);

@@ -58,10 +58,10 @@ struct Particles {
 
 using kernels::advance_deformation;
 
-//! Sends every particle i, every attribute and `extra` included, to rank owner(i)
-//! (parallel::RowExchange); afterwards each rank holds the particles it owns, received ones
-//! appended after the kept ones in source-rank order. Collective. Returns the number of
-//! particles this rank sent away.
-std::size_t redistribute(MPI_Comm comm, Particles& p, const std::function<int(std::size_t)>& owner);
+//! Sends every particle i, every attribute and `extra` included, to rank dest[i]
+//! (parallel::RowExchange); afterwards each rank holds the particles it owns: the kept ones
+//! (the last of them moved into the gaps of those sent), then the received ones in source-rank
+//! order. Collective. Returns the number of particles this rank sent away.
+std::size_t redistribute(MPI_Comm comm, Particles& p, const std::vector<int>& dest);
 
 }  // namespace gen4d::mpm

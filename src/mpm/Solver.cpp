@@ -62,13 +62,13 @@ bool Solver::on_device() const {
 }
 
 int Solver::owner_of(const double* x) const {
-  long n[3];
-  const auto nodes = spec_.nodes();
+  int owner = 0;
   for (int a = 0; a < 3; ++a) {
     const double X = (x[a] - spec_.lo[a]) / spec_.dx;
-    n[a] = std::clamp(static_cast<long>(std::floor(X + 0.5)), 1L, nodes[a] - 2);
+    const long last = static_cast<long>(rank_part_[a].size()) - 2;
+    owner += rank_part_[a][std::clamp(static_cast<long>(std::floor(X + 0.5)), 1L, last)];
   }
-  return grid_->owner_of(n[0], n[1], n[2]);
+  return owner;
 }
 
 void Solver::distribute(Particles local) {
@@ -106,6 +106,13 @@ void Solver::distribute(Particles local) {
     for (int s = 0; s < m; ++s) ownership[a].push_back(cuts[s + 1] - cuts[s]);
   }
   grid_ = std::make_unique<parallel::NodeGrid>(comm_, nodes, ownership);
+  // The owner of node (i, j, k) is the sum of one term per axis (ranks are numbered x fastest).
+  for (int a = 0; a < 3; ++a) {
+    rank_part_[a].resize(static_cast<std::size_t>(nodes[a]));
+    for (long n = 0; n < nodes[a]; ++n)
+      rank_part_[a][static_cast<std::size_t>(n)] =
+          grid_->owner_of(a == 0 ? n : 0, a == 1 ? n : 0, a == 2 ? n : 0);
+  }
   halo4_ = std::make_unique<parallel::Halo>(*grid_, 4);
   const std::size_t ng = static_cast<std::size_t>(grid_->ghosted_nodes().size());
   pm_.assign(4 * ng, 0.0);
@@ -389,7 +396,13 @@ void Solver::g2p(double t, double dt) {
     device::g2p(*device_, a, n, static_cast<long>(gb.size()));
   else
 #endif
-    exec::parallel_blocks(n, [&](long b, long e) { host::g2p(a, b, e); });
+  {
+    // The guard rides along while each particle is in cache (check_and_confine acts on it).
+    const kernels::GuardArgs guard = guard_args(dt);
+    status_.resize(static_cast<std::size_t>(n));
+    exec::parallel_blocks(n, [&](long b, long e) { host::g2p(a, b, e, &guard, status_.data()); });
+    guarded_ = a.advance;
+  }
   if (a.advance) return;
   particle_conditions(t, dt);
   exec::parallel_for(n, [&](long i) {
@@ -443,8 +456,7 @@ void Solver::particle_conditions(double t, double dt) {
   }
 }
 
-void Solver::check_and_confine(double t, double dt) {
-  const long n = static_cast<long>(p_.size());
+kernels::GuardArgs Solver::guard_args(double dt) {
   const auto nodes = spec_.nodes();
   kernels::GuardArgs a{};
   a.x = p_.x.data();
@@ -458,9 +470,18 @@ void Solver::check_and_confine(double t, double dt) {
   a.dt = dt;
   a.limit = opt_.max_cells_per_substep * spec_.dx;
   a.remove_outside = opt_.remove_outside;
+  return a;
+}
+
+void Solver::check_and_confine(double t, double dt) {
+  const long n = static_cast<long>(p_.size());
   status_.resize(static_cast<std::size_t>(n));
   std::uint8_t* status = status_.data();
-  exec::parallel_for(n, [&](long i) { status[i] = kernels::guard_particle(a, i); });
+  if (!guarded_) {
+    const kernels::GuardArgs a = guard_args(dt);
+    exec::parallel_for(n, [&](long i) { status[i] = kernels::guard_particle(a, i); });
+  }
+  guarded_ = false;
   long long bad = 0, removed = 0, clamped = 0;
   for (long i = 0; i < n; ++i) {
     bad += status[i] == kernels::kUnstable;
@@ -509,10 +530,13 @@ void Solver::check_and_confine(double t, double dt) {
 }
 
 void Solver::migrate() {
-  const long long sent = static_cast<long long>(
-      redistribute(comm_, p_, [&](std::size_t i) { return owner_of(&p_.x[3 * i]); }));
-  long long total = sent;
-  if (size_ > 1) MPI_Allreduce(MPI_IN_PLACE, &total, 1, MPI_LONG_LONG, MPI_SUM, comm_);
+  if (size_ == 1) return;
+  dest_.resize(p_.size());
+  int* dest = dest_.data();
+  exec::parallel_for(static_cast<long>(p_.size()),
+                     [&](long i) { dest[i] = owner_of(&p_.x[3 * i]); });
+  long long total = static_cast<long long>(redistribute(comm_, p_, dest_));
+  MPI_Allreduce(MPI_IN_PLACE, &total, 1, MPI_LONG_LONG, MPI_SUM, comm_);
   migrated_total_ += total;
 }
 

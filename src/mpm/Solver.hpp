@@ -156,6 +156,7 @@ class Solver {
   void g2p(double t, double dt);
   void particle_conditions(double t, double dt);
   void check_and_confine(double t, double dt);
+  kernels::GuardArgs guard_args(double dt);
   void migrate();
   bool frozen(std::size_t i, double t) const;
 
@@ -173,7 +174,10 @@ class Solver {
   // Host P2G's slab colouring: each particle's slab, the particles by slab, slab offsets.
   std::vector<std::int32_t> slab_of_;
   std::vector<long> order_, slab_start_;
+  std::vector<int> dest_;                                // migration: owner per particle
+  std::array<std::vector<int>, 3> rank_part_;            // owner_of's term per axis and node
   std::vector<std::uint8_t> status_;                     // guard, per particle
+  bool guarded_ = false;  // status_ already holds this substep's guard (fused into G2P)
   std::vector<kernels::GridCondition> grid_conditions_;  // of the substep at hand
 #if defined(GEN4D_CUDA)
   device::WorkspacePtr device_;  // set when the kernels run on this rank's GPU

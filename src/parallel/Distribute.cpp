@@ -96,6 +96,24 @@ std::size_t RowExchange::exchange(MPI_Comm comm, const std::vector<int>& dest) {
   MPI_Alltoallv(sendbuf.empty() ? &nothing : sendbuf.data(), scount.data(), sdispl.data(), MPI_BYTE,
                 recvbuf.empty() ? &nothing : recvbuf.data(), rcount.data(), rdispl.data(), MPI_BYTE,
                 comm);
+  if (fill_from_end_ && sent > 0) {
+    // Close the gaps with the last kept rows, then every row is kept.
+    std::size_t end = n;
+    for (std::size_t gap = 0; gap < end; ++gap) {
+      if (keep[gap]) continue;
+      while (end > gap + 1 && !keep[end - 1]) --end;
+      if (end <= gap + 1) {
+        end = gap;
+        break;
+      }
+      --end;
+      for (const auto& c : columns_)
+        if (c->row_bytes() > 0) c->move_row(end, gap);
+    }
+    for (const auto& c : columns_)
+      if (c->row_bytes() > 0) c->truncate(end);
+    keep.assign(end, 1);
+  }
   for (std::size_t c = 0; c < columns_.size(); ++c)
     if (columns_[c]->row_bytes() > 0)
       columns_[c]->rebuild(keep, recvbuf.data(), static_cast<std::size_t>(in_rows), stride,

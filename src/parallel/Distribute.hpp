@@ -48,6 +48,13 @@ class RowExchange {
   //! int counts). Returns the number of rows this rank sent away.
   std::size_t exchange(MPI_Comm comm, const std::vector<int>& dest);
 
+  //! Lets the kept rows lose their order: the last kept rows move into the gaps the sent ones
+  //! leave (work in proportion to the rows sent, not to all rows). Still deterministic.
+  RowExchange& fill_gaps_from_end() {
+    fill_from_end_ = true;
+    return *this;
+  }
+
  private:
   struct ColumnBase {
     virtual ~ColumnBase() = default;
@@ -58,12 +65,16 @@ class RowExchange {
     //! `stride` bytes at byte `offset` within each record.
     virtual void rebuild(const std::vector<std::uint8_t>& keep, const unsigned char* packed,
                          std::size_t n, std::size_t stride, std::size_t offset) = 0;
+    //! Copies row `from` onto row `to`; keeps the first `rows` rows.
+    virtual void move_row(std::size_t from, std::size_t to) = 0;
+    virtual void truncate(std::size_t rows) = 0;
   };
   template <class T>
   struct Column;
   void add_column(std::unique_ptr<ColumnBase> c);
   static void check_width(int width);
   std::vector<std::unique_ptr<ColumnBase>> columns_;
+  bool fill_from_end_ = false;
 };
 
 template <class T>
@@ -76,6 +87,10 @@ struct RowExchange::Column final : RowExchange::ColumnBase {
   }
   void rebuild(const std::vector<std::uint8_t>& keep, const unsigned char* packed, std::size_t n,
                std::size_t stride, std::size_t offset) override;
+  void move_row(std::size_t from, std::size_t to) override {
+    std::memcpy(data.data() + to * width, data.data() + from * width, width * sizeof(T));
+  }
+  void truncate(std::size_t rows) override { data.resize(rows * width); }
   std::vector<T>& data;
   std::size_t width;
 };
