@@ -17,6 +17,18 @@ inline void p2g_loop(const kernels::P2GArgs& a, const long* order, long b, long 
     for (long i = b; i < e; ++i) kernels::p2g_particle(a, i, grid, add);
 }
 
+inline void bound_loop(const kernels::P2GArgs& a, long b, long e, double* bound) {
+  double m = 0, p = 0;
+  for (long i = b; i < e; ++i) {
+    double q[2];
+    kernels::p2g_bound(a, i, q);
+    m = kernels::max_of(m, q[0]);
+    p = kernels::max_of(p, q[1]);
+  }
+  bound[0] = m;
+  bound[1] = p;
+}
+
 inline void g2p_loop(const kernels::G2PArgs& a, long b, long e, const kernels::GuardArgs* guard,
                      std::uint8_t* status) {
   if (guard)
@@ -39,6 +51,16 @@ __attribute__((flatten)) void p2g_baseline(const kernels::P2GArgs& a, const long
   p2g_loop(a, order, b, e, grid);
 }
 
+__attribute__((target("avx2"), flatten)) void bound_avx2(const kernels::P2GArgs& a, long b, long e,
+                                                         double* bound) {
+  bound_loop(a, b, e, bound);
+}
+
+__attribute__((flatten)) void bound_baseline(const kernels::P2GArgs& a, long b, long e,
+                                             double* bound) {
+  bound_loop(a, b, e, bound);
+}
+
 __attribute__((target("avx2"), flatten)) void g2p_avx2(const kernels::G2PArgs& a, long b, long e,
                                                        const kernels::GuardArgs* guard,
                                                        std::uint8_t* status) {
@@ -59,6 +81,13 @@ Isa best_isa() {
     return __builtin_cpu_supports("avx2") ? Isa::kAvx2 : Isa::kBaseline;
   }();
   return best;
+}
+
+void p2g_bound(const kernels::P2GArgs& a, long b, long e, double* bound, Isa isa) {
+  if (isa == Isa::kAvx2 && __builtin_cpu_supports("avx2"))
+    bound_avx2(a, b, e, bound);
+  else
+    bound_baseline(a, b, e, bound);
 }
 
 void p2g(const kernels::P2GArgs& a, const long* order, long b, long e, double* grid, Isa isa) {

@@ -12,6 +12,10 @@ enum class Isa { kBaseline = 0, kAvx2 = 1 };
 //! The best the CPU has; GEN4D_MPM_ISA=baseline forces the portable copy.
 Isa best_isa();
 
+//! The largest p2g_bound of particles b..e into bound[0] (mass) and bound[1] (momentum);
+//! frozen particles count too.
+void p2g_bound(const kernels::P2GArgs& a, long b, long e, double* bound, Isa isa = best_isa());
+
 //! P2G of particles order[b..e) (or b..e when `order` is null) into `grid`, plain additions:
 //! the caller makes sure no other thread touches the same nodes.
 void p2g(const kernels::P2GArgs& a, const long* order, long b, long e, double* grid,

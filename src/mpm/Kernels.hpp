@@ -147,15 +147,17 @@ struct P2GArgs {
   long gx, gy;            //!< ghosted box size along x and y
 };
 
+//! max(a, b) for a not NaN: a NaN b is ignored, as std::fmax does (and it vectorises).
+GEN4D_HD inline double max_of(double a, double b) { return b > a ? b : a; }
+
 //! Bound of particle i's largest P2G contribution, {mass, momentum}, for the quanta.
 GEN4D_HD inline void p2g_bound(const P2GArgs& a, long i, double* bound) {
   const double m = a.mass[i];
   double mv = 0, s = 0, C[9];
   transfer_affine(&a.C[9 * i], a.rpic, C);
-  for (int d = 0; d < 3; ++d) mv = std::fmax(mv, std::fabs(a.v[3 * i + d]));
+  for (int d = 0; d < 3; ++d) mv = max_of(mv, std::fabs(a.v[3 * i + d]));
   for (int k = 0; k < 9; ++k)
-    s = std::fmax(s,
-                  std::fabs(a.stress_scale * a.vol0[i] * a.tau[9 * i + k]) + std::fabs(m * C[k]));
+    s = max_of(s, std::fabs(a.stress_scale * a.vol0[i] * a.tau[9 * i + k]) + std::fabs(m * C[k]));
   bound[0] = m;
   bound[1] = m * mv + 3 * s * 1.5 * a.dx;
 }

@@ -231,12 +231,16 @@ void Solver::p2g(double dt) {
   a.gx = gb.count[0];
   a.gy = gb.count[1];
   // Quanta from the global largest contributions.
-  double bound[2] = {exec::parallel_reduce_max(n, 0.0, [&](long i) { return a.mass[i]; }),
-                     exec::parallel_reduce_max(n, 0.0, [&](long i) {
-                       double b[2];
-                       kernels::p2g_bound(a, i, b);
-                       return b[1];
-                     })};
+  double bound[2] = {0, 0};
+  {
+    const long T = n < exec::kSerialBelow ? 1 : exec::host_threads();
+    std::vector<double> block(2 * static_cast<std::size_t>(T), 0.0);
+    exec::parallel_for_dynamic(T, [&](long k) {
+      host::p2g_bound(a, n * k / T, n * (k + 1) / T, &block[2 * static_cast<std::size_t>(k)]);
+    });
+    for (std::size_t k = 0; k < block.size(); k += 2)
+      for (int c = 0; c < 2; ++c) bound[c] = kernels::max_of(bound[c], block[k + c]);
+  }
   MPI_Allreduce(MPI_IN_PLACE, bound, 2, MPI_DOUBLE, MPI_MAX, comm_);
   a.inv_qm = inverse_quantum(bound[0]);
   a.inv_qp = inverse_quantum(bound[1]);
