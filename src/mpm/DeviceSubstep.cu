@@ -28,11 +28,12 @@ namespace {
 
 //! Order-independent: every value is an integer multiple of the quantum.
 struct AtomicAdd {
-  GEN4D_HD void operator()(double* g, const kernels::Quad& q) const {
+  template <int N>
+  GEN4D_HD void operator()(double* g, const kernels::Lanes<N>& q) const {
 #if defined(__CUDA_ARCH__)
-    for (int k = 0; k < 4; ++k) atomicAdd(g + k, q[k]);
+    for (int k = 0; k < N; ++k) atomicAdd(g + k, q[k]);
 #else
-    kernels::add_quad(g, q);
+    kernels::add_lanes(g, q);
 #endif
   }
 };

@@ -10,7 +10,7 @@ namespace gen4d::mpm::host {
 namespace {
 
 inline void p2g_loop(const kernels::P2GArgs& a, const long* order, long b, long e, double* grid) {
-  const auto add = [](double* g, const kernels::Quad& q) { kernels::add_quad(g, q); };
+  const auto add = [](double* g, const auto& q) { kernels::add_lanes(g, q); };
   if (order)
     for (long q = b; q < e; ++q) kernels::p2g_particle(a, order[q], grid, add);
   else
@@ -40,6 +40,12 @@ inline void g2p_loop(const kernels::G2PArgs& a, long b, long e, const kernels::G
     for (long i = b; i < e; ++i) kernels::g2p_particle(a, i);
 }
 
+__attribute__((target("avx512f"), flatten)) void p2g_avx512(const kernels::P2GArgs& a,
+                                                           const long* order, long b, long e,
+                                                           double* grid) {
+  p2g_loop(a, order, b, e, grid);
+}
+
 __attribute__((target("avx2"), flatten)) void p2g_avx2(const kernels::P2GArgs& a,
                                                        const long* order, long b, long e,
                                                        double* grid) {
@@ -51,6 +57,11 @@ __attribute__((flatten)) void p2g_baseline(const kernels::P2GArgs& a, const long
   p2g_loop(a, order, b, e, grid);
 }
 
+__attribute__((target("avx512f"), flatten)) void bound_avx512(const kernels::P2GArgs& a, long b,
+                                                             long e, double* bound) {
+  bound_loop(a, b, e, bound);
+}
+
 __attribute__((target("avx2"), flatten)) void bound_avx2(const kernels::P2GArgs& a, long b, long e,
                                                          double* bound) {
   bound_loop(a, b, e, bound);
@@ -59,6 +70,12 @@ __attribute__((target("avx2"), flatten)) void bound_avx2(const kernels::P2GArgs&
 __attribute__((flatten)) void bound_baseline(const kernels::P2GArgs& a, long b, long e,
                                              double* bound) {
   bound_loop(a, b, e, bound);
+}
+
+__attribute__((target("avx512f"), flatten)) void g2p_avx512(const kernels::G2PArgs& a, long b,
+                                                           long e, const kernels::GuardArgs* guard,
+                                                           std::uint8_t* status) {
+  g2p_loop(a, b, e, guard, status);
 }
 
 __attribute__((target("avx2"), flatten)) void g2p_avx2(const kernels::G2PArgs& a, long b, long e,
@@ -78,20 +95,27 @@ Isa best_isa() {
   static const Isa best = [] {
     const char* env = std::getenv("GEN4D_MPM_ISA");
     if (env && std::strcmp(env, "baseline") == 0) return Isa::kBaseline;
-    return __builtin_cpu_supports("avx2") ? Isa::kAvx2 : Isa::kBaseline;
+    if (env && std::strcmp(env, "avx2") == 0 && __builtin_cpu_supports("avx2")) return Isa::kAvx2;
+    return __builtin_cpu_supports("avx512f") ? Isa::kAvx512
+           : __builtin_cpu_supports("avx2")  ? Isa::kAvx2
+                                             : Isa::kBaseline;
   }();
   return best;
 }
 
 void p2g_bound(const kernels::P2GArgs& a, long b, long e, double* bound, Isa isa) {
-  if (isa == Isa::kAvx2 && __builtin_cpu_supports("avx2"))
+  if (isa == Isa::kAvx512 && __builtin_cpu_supports("avx512f"))
+    bound_avx512(a, b, e, bound);
+  else if (isa >= Isa::kAvx2 && __builtin_cpu_supports("avx2"))
     bound_avx2(a, b, e, bound);
   else
     bound_baseline(a, b, e, bound);
 }
 
 void p2g(const kernels::P2GArgs& a, const long* order, long b, long e, double* grid, Isa isa) {
-  if (isa == Isa::kAvx2 && __builtin_cpu_supports("avx2"))
+  if (isa == Isa::kAvx512 && __builtin_cpu_supports("avx512f"))
+    p2g_avx512(a, order, b, e, grid);
+  else if (isa >= Isa::kAvx2 && __builtin_cpu_supports("avx2"))
     p2g_avx2(a, order, b, e, grid);
   else
     p2g_baseline(a, order, b, e, grid);
@@ -100,7 +124,9 @@ void p2g(const kernels::P2GArgs& a, const long* order, long b, long e, double* g
 void g2p(const kernels::G2PArgs& a, long b, long e, const kernels::GuardArgs* guard,
          std::uint8_t* status, Isa isa) {
   if (!a.advance) guard = nullptr;
-  if (isa == Isa::kAvx2 && __builtin_cpu_supports("avx2"))
+  if (isa == Isa::kAvx512 && __builtin_cpu_supports("avx512f"))
+    g2p_avx512(a, b, e, guard, status);
+  else if (isa >= Isa::kAvx2 && __builtin_cpu_supports("avx2"))
     g2p_avx2(a, b, e, guard, status);
   else
     g2p_baseline(a, b, e, guard, status);

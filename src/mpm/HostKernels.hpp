@@ -1,5 +1,5 @@
 //! The host's loops over the MPM kernels (Kernels.hpp), compiled per instruction set: the AVX2
-//! copy runs a node's four values in one instruction. Every copy rounds as the scalar kernels
+//! copy runs a node's four values in one instruction, the AVX-512 copy two nodes' eight. Every copy rounds as the scalar kernels
 //! do (no fused multiply-adds), so the results are the same bits on any CPU.
 #pragma once
 
@@ -7,9 +7,9 @@
 
 namespace gen4d::mpm::host {
 
-enum class Isa { kBaseline = 0, kAvx2 = 1 };
+enum class Isa { kBaseline = 0, kAvx2 = 1, kAvx512 = 2 };
 
-//! The best the CPU has; GEN4D_MPM_ISA=baseline forces the portable copy.
+//! The best the CPU has; GEN4D_MPM_ISA=baseline or avx2 caps it (for comparisons).
 Isa best_isa();
 
 //! The largest p2g_bound of particles b..e into bound[0] (mass) and bound[1] (momentum);

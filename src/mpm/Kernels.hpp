@@ -19,55 +19,71 @@
 
 namespace gen4d::mpm::kernels {
 
-// Four doubles worked on together: one node's (mass, momentum x, y, z) in P2G, a velocity (and
-// a spare lane) in G2P. On the host a GCC vector, so one AVX2 instruction (two SSE2 ones) does
-// a node; on a GPU four scalars. Lane by lane, each operation rounds as the scalar one did.
+// Lanes of doubles worked on together. Quad: one node's (mass, momentum x, y, z) in P2G, a
+// velocity and a spare lane in G2P. Pair: two neighbouring nodes of a row (8 contiguous grid
+// values). On the host GCC vectors, so one AVX-512 instruction does a Pair and one AVX2
+// instruction a Quad; on a GPU plain scalars. Lane by lane, each operation rounds as the scalar
+// one would.
 #if defined(__CUDACC__)
-struct Quad {
-  double l[4];
+template <int N>
+struct Lanes {
+  double l[N];
   GEN4D_HD double operator[](int k) const { return l[k]; }
 };
-GEN4D_HD inline Quad operator+(const Quad& a, const Quad& b) {
-  return {{a.l[0] + b.l[0], a.l[1] + b.l[1], a.l[2] + b.l[2], a.l[3] + b.l[3]}};
+#define GEN4D_LANES_OP(op)                                                       \
+  template <int N>                                                               \
+  GEN4D_HD inline Lanes<N> operator op(const Lanes<N>& a, const Lanes<N>& b) {   \
+    Lanes<N> r;                                                                  \
+    for (int k = 0; k < N; ++k) r.l[k] = a.l[k] op b.l[k];                       \
+    return r;                                                                    \
+  }                                                                              \
+  template <int N>                                                               \
+  GEN4D_HD inline Lanes<N> operator op(const Lanes<N>& a, double s) {            \
+    Lanes<N> r;                                                                  \
+    for (int k = 0; k < N; ++k) r.l[k] = a.l[k] op s;                            \
+    return r;                                                                    \
+  }
+GEN4D_LANES_OP(+)
+GEN4D_LANES_OP(-)
+GEN4D_LANES_OP(*)
+#undef GEN4D_LANES_OP
+template <int N>
+GEN4D_HD inline Lanes<N>& operator+=(Lanes<N>& a, const Lanes<N>& b) {
+  return a = a + b;
 }
-GEN4D_HD inline Quad operator-(const Quad& a, const Quad& b) {
-  return {{a.l[0] - b.l[0], a.l[1] - b.l[1], a.l[2] - b.l[2], a.l[3] - b.l[3]}};
-}
-GEN4D_HD inline Quad operator*(const Quad& a, const Quad& b) {
-  return {{a.l[0] * b.l[0], a.l[1] * b.l[1], a.l[2] * b.l[2], a.l[3] * b.l[3]}};
-}
-GEN4D_HD inline Quad operator*(const Quad& a, double s) {
-  return {{a.l[0] * s, a.l[1] * s, a.l[2] * s, a.l[3] * s}};
-}
-GEN4D_HD inline Quad operator+(const Quad& a, double s) {
-  return {{a.l[0] + s, a.l[1] + s, a.l[2] + s, a.l[3] + s}};
-}
-GEN4D_HD inline Quad operator-(const Quad& a, double s) {
-  return {{a.l[0] - s, a.l[1] - s, a.l[2] - s, a.l[3] - s}};
-}
-GEN4D_HD inline Quad& operator+=(Quad& a, const Quad& b) { return a = a + b; }
+using Quad = Lanes<4>;
+using Pair = Lanes<8>;
 GEN4D_HD inline Quad make_quad(double a, double b, double c, double d) { return {{a, b, c, d}}; }
+GEN4D_HD inline Pair make_pair(const Quad& a, const Quad& b) {
+  return {{a.l[0], a.l[1], a.l[2], a.l[3], b.l[0], b.l[1], b.l[2], b.l[3]}};
+}
 //! p[0..2] and a zero lane (reads three values).
 GEN4D_HD inline Quad load_xyz(const double* p) { return {{p[0], p[1], p[2], 0.0}}; }
-//! g[0..3] += q, plain (no other thread touches g).
-GEN4D_HD inline void add_quad(double* g, const Quad& q) {
-  for (int k = 0; k < 4; ++k) g[k] += q.l[k];
+//! g[0..N) += q, plain (no other thread touches g).
+template <int N>
+GEN4D_HD inline void add_lanes(double* g, const Lanes<N>& q) {
+  for (int k = 0; k < N; ++k) g[k] += q.l[k];
 }
 #else
 // Passed by value only between inlined functions: no ABI to keep.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wpsabi"
 typedef double Quad __attribute__((vector_size(32)));
+typedef double Pair __attribute__((vector_size(64)));
 inline Quad make_quad(double a, double b, double c, double d) { return Quad{a, b, c, d}; }
+inline Pair make_pair(const Quad& a, const Quad& b) {
+  return __builtin_shufflevector(a, b, 0, 1, 2, 3, 4, 5, 6, 7);
+}
 //! p[0..2] in lanes 0-2; lane 3 holds p[3], which must be readable (arrays padded by one).
 inline Quad load_xyz(const double* p) {
   Quad q;
   __builtin_memcpy(&q, p, sizeof q);
   return q;
 }
-//! g[0..3] += q, plain (no other thread touches g).
-inline void add_quad(double* g, const Quad& q) {
-  Quad t;
+//! g[0..lanes) += q, plain (no other thread touches g).
+template <class V>
+inline void add_lanes(double* g, const V& q) {
+  V t;
   __builtin_memcpy(&t, g, sizeof t);
   t += q;
   __builtin_memcpy(g, &t, sizeof t);
@@ -162,9 +178,10 @@ GEN4D_HD inline void p2g_bound(const P2GArgs& a, long i, double* bound) {
   bound[1] = m * mv + 3 * s * 1.5 * a.dx;
 }
 
-//! Scatters particle i into `grid` (4 values per node) through add(g, q), which adds the 4
-//! values q (mass, momentum x, y, z, in quanta) to the node at g: a plain addition where no
-//! other thread touches that node, an atomic one otherwise.
+//! Scatters particle i into `grid` (4 values per node) through add(g, q), which adds the lanes
+//! of q (a Quad: one node's mass, momentum x, y, z in quanta; a Pair: two neighbouring nodes)
+//! to the grid values from g on: a plain addition where no other thread touches those nodes, an
+//! atomic one otherwise.
 template <class Add>
 GEN4D_HD inline void p2g_particle(const P2GArgs& a, long i, double* grid, const Add& add) {
   if (a.flag[i] & 1) return;
@@ -182,13 +199,16 @@ GEN4D_HD inline void p2g_particle(const P2GArgs& a, long i, double* grid, const 
   const Quad inv_q = make_quad(a.inv_qm, a.inv_qp, a.inv_qp, a.inv_qp);
   double dxa[3];
   for (int o = 0; o < 3; ++o) dxa[o] = (o - st.fx[0]) * dx;
+  // Nodes 0 and 1 of a row as one Pair (8 contiguous grid values), node 2 as a Quad.
+  const auto both = [](double v) { return make_quad(v, v, v, v); };
+  const Pair ax2 = make_pair(ax, ax), inv_q2 = make_pair(inv_q, inv_q);
+  const Pair dxa01 = make_pair(both(dxa[0]), both(dxa[1]));
+  const Pair w01 = make_pair(both(st.w[0][0]), both(st.w[0][1]));
   st.for_each_row(dx, a.gx, a.gy, [&](double dy, double dz, double wzy, long row) {
-    // Affine momentum at the node: mv + A (dx0, dy, dz), each value rounded to its quantum.
+    // Affine momentum at the node: mv + A (dx0, dy, dz), weighted, rounded to its quantum.
     const Quad r = mv + ay * dy + az * dz;
-    for (int o = 0; o < 3; ++o) {
-      const double weight = wzy * st.w[0][o];
-      add(&grid[4 * (row + o)], round_int((r + ax * dxa[o]) * weight * inv_q));
-    }
+    add(&grid[4 * row], round_int((make_pair(r, r) + ax2 * dxa01) * (w01 * wzy) * inv_q2));
+    add(&grid[4 * (row + 2)], round_int((r + ax * dxa[2]) * (wzy * st.w[0][2]) * inv_q));
   });
 }
 
