@@ -101,8 +101,8 @@ TEST(MpmHostKernels, EveryInstructionSetGivesTheSameBits) {
   for (std::size_t isa = 1; isa < grids.size(); ++isa) {
     EXPECT_EQ(std::memcmp(grids[0].data(), grids[isa].data(), grids[0].size() * sizeof(double)), 0)
         << "P2G, isa " << isa;
-    EXPECT_EQ(
-        std::memcmp(states[0].data(), states[isa].data(), states[0].size() * sizeof(double)), 0)
+    EXPECT_EQ(std::memcmp(states[0].data(), states[isa].data(), states[0].size() * sizeof(double)),
+              0)
         << "G2P, isa " << isa;
   }
   if (grids.size() == 1) GTEST_LOG_(INFO) << "this CPU has no AVX2: only the baseline copy ran";

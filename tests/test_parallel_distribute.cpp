@@ -111,6 +111,50 @@ TEST(RowExchange, RowsArriveCompleteInDocumentedOrder) {
   }
 }
 
+// fill_gaps_from_end: the kept rows (in some order) then the received ones in the documented
+// order; every row complete (its columns still belong together).
+TEST(RowExchange, GapsFilledFromTheEndKeepEveryRowWhole) {
+  const int rank = comm_rank(), size = comm_size();
+  Rows mine = rows_of(rank);
+  std::vector<int> dest(mine.id.size());
+  std::vector<std::int64_t> kept;
+  for (std::size_t i = 0; i < dest.size(); ++i) {
+    dest[i] = destination(mine.id[i], size);
+    if (dest[i] == rank) kept.push_back(mine.id[i]);
+  }
+  Rows received;
+  for (int src = 0; src < size; ++src) {
+    if (src == rank) continue;
+    const Rows theirs = rows_of(src);
+    for (std::size_t i = 0; i < theirs.id.size(); ++i)
+      if (destination(theirs.id[i], size) == rank) append_row(received, theirs, i);
+  }
+  RowExchange ex;
+  ex.add(mine.id, 1).add(mine.x, 3).add(mine.tag, 1).add(mine.unused, 0).fill_gaps_from_end();
+  ex.exchange(MPI_COMM_WORLD, dest);
+  ASSERT_EQ(mine.id.size(), kept.size() + received.id.size());
+  std::vector<std::int64_t> first(mine.id.begin(),
+                                  mine.id.begin() + static_cast<long>(kept.size()));
+  std::sort(first.begin(), first.end());
+  EXPECT_EQ(first, kept);  // kept ids are ascending in rows_of
+  const Rows all = [&] {
+    Rows r;
+    for (int src = 0; src < size; ++src) {
+      const Rows theirs = rows_of(src);
+      for (std::size_t i = 0; i < theirs.id.size(); ++i) append_row(r, theirs, i);
+    }
+    return r;
+  }();
+  for (std::size_t k = 0; k < mine.id.size(); ++k) {
+    const auto at = std::find(all.id.begin(), all.id.end(), mine.id[k]) - all.id.begin();
+    EXPECT_EQ(mine.tag[k], all.tag[static_cast<std::size_t>(at)]) << "row " << k;
+    for (int d = 0; d < 3; ++d)
+      EXPECT_EQ(mine.x[3 * k + d], all.x[3 * static_cast<std::size_t>(at) + d]) << "row " << k;
+    if (k >= kept.size()) EXPECT_EQ(mine.id[k], received.id[k - kept.size()]);
+  }
+  EXPECT_EQ(mine.unused, (std::vector<float>{1.5f, 2.5f}));
+}
+
 TEST(RowExchange, RoundTripRestoresTheRows) {
   const int rank = comm_rank(), size = comm_size();
   const Rows original = rows_of(rank);

@@ -41,14 +41,13 @@ inline void g2p_loop(const kernels::G2PArgs& a, long b, long e, const kernels::G
 }
 
 __attribute__((target("avx512f"), flatten)) void p2g_avx512(const kernels::P2GArgs& a,
-                                                           const long* order, long b, long e,
-                                                           double* grid) {
+                                                            const long* order, long b, long e,
+                                                            double* grid) {
   p2g_loop(a, order, b, e, grid);
 }
 
-__attribute__((target("avx2"), flatten)) void p2g_avx2(const kernels::P2GArgs& a,
-                                                       const long* order, long b, long e,
-                                                       double* grid) {
+__attribute__((target("avx2"), flatten)) void p2g_avx2(const kernels::P2GArgs& a, const long* order,
+                                                       long b, long e, double* grid) {
   p2g_loop(a, order, b, e, grid);
 }
 
@@ -58,7 +57,7 @@ __attribute__((flatten)) void p2g_baseline(const kernels::P2GArgs& a, const long
 }
 
 __attribute__((target("avx512f"), flatten)) void bound_avx512(const kernels::P2GArgs& a, long b,
-                                                             long e, double* bound) {
+                                                              long e, double* bound) {
   bound_loop(a, b, e, bound);
 }
 
@@ -73,8 +72,8 @@ __attribute__((flatten)) void bound_baseline(const kernels::P2GArgs& a, long b, 
 }
 
 __attribute__((target("avx512f"), flatten)) void g2p_avx512(const kernels::G2PArgs& a, long b,
-                                                           long e, const kernels::GuardArgs* guard,
-                                                           std::uint8_t* status) {
+                                                            long e, const kernels::GuardArgs* guard,
+                                                            std::uint8_t* status) {
   g2p_loop(a, b, e, guard, status);
 }
 

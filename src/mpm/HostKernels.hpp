@@ -1,6 +1,7 @@
 //! The host's loops over the MPM kernels (Kernels.hpp), compiled per instruction set: the AVX2
-//! copy runs a node's four values in one instruction, the AVX-512 copy two nodes' eight. Every copy rounds as the scalar kernels
-//! do (no fused multiply-adds), so the results are the same bits on any CPU.
+//! copy runs a node's four values in one instruction, the AVX-512 copy two nodes' eight. Every copy
+//! rounds as the scalar kernels do (no fused multiply-adds), so the results are the same bits on
+//! any CPU.
 #pragma once
 
 #include "mpm/Kernels.hpp"

@@ -30,18 +30,18 @@ struct Lanes {
   double l[N];
   GEN4D_HD double operator[](int k) const { return l[k]; }
 };
-#define GEN4D_LANES_OP(op)                                                       \
-  template <int N>                                                               \
-  GEN4D_HD inline Lanes<N> operator op(const Lanes<N>& a, const Lanes<N>& b) {   \
-    Lanes<N> r;                                                                  \
-    for (int k = 0; k < N; ++k) r.l[k] = a.l[k] op b.l[k];                       \
-    return r;                                                                    \
-  }                                                                              \
-  template <int N>                                                               \
-  GEN4D_HD inline Lanes<N> operator op(const Lanes<N>& a, double s) {            \
-    Lanes<N> r;                                                                  \
-    for (int k = 0; k < N; ++k) r.l[k] = a.l[k] op s;                            \
-    return r;                                                                    \
+#define GEN4D_LANES_OP(op)                                                     \
+  template <int N>                                                             \
+  GEN4D_HD inline Lanes<N> operator op(const Lanes<N>& a, const Lanes<N>& b) { \
+    Lanes<N> r;                                                                \
+    for (int k = 0; k < N; ++k) r.l[k] = a.l[k] op b.l[k];                     \
+    return r;                                                                  \
+  }                                                                            \
+  template <int N>                                                             \
+  GEN4D_HD inline Lanes<N> operator op(const Lanes<N>& a, double s) {          \
+    Lanes<N> r;                                                                \
+    for (int k = 0; k < N; ++k) r.l[k] = a.l[k] op s;                          \
+    return r;                                                                  \
   }
 GEN4D_LANES_OP(+)
 GEN4D_LANES_OP(-)
@@ -53,12 +53,16 @@ GEN4D_HD inline Lanes<N>& operator+=(Lanes<N>& a, const Lanes<N>& b) {
 }
 using Quad = Lanes<4>;
 using Pair = Lanes<8>;
-GEN4D_HD inline Quad make_quad(double a, double b, double c, double d) { return {{a, b, c, d}}; }
+GEN4D_HD inline Quad make_quad(double a, double b, double c, double d) {
+  return {{a, b, c, d}};
+}
 GEN4D_HD inline Pair make_pair(const Quad& a, const Quad& b) {
   return {{a.l[0], a.l[1], a.l[2], a.l[3], b.l[0], b.l[1], b.l[2], b.l[3]}};
 }
 //! p[0..2] and a zero lane (reads three values).
-GEN4D_HD inline Quad load_xyz(const double* p) { return {{p[0], p[1], p[2], 0.0}}; }
+GEN4D_HD inline Quad load_xyz(const double* p) {
+  return {{p[0], p[1], p[2], 0.0}};
+}
 //! g[0..N) += q, plain (no other thread touches g).
 template <int N>
 GEN4D_HD inline void add_lanes(double* g, const Lanes<N>& q) {
@@ -70,7 +74,9 @@ GEN4D_HD inline void add_lanes(double* g, const Lanes<N>& q) {
 #pragma GCC diagnostic ignored "-Wpsabi"
 typedef double Quad __attribute__((vector_size(32)));
 typedef double Pair __attribute__((vector_size(64)));
-inline Quad make_quad(double a, double b, double c, double d) { return Quad{a, b, c, d}; }
+inline Quad make_quad(double a, double b, double c, double d) {
+  return Quad{a, b, c, d};
+}
 inline Pair make_pair(const Quad& a, const Quad& b) {
   return __builtin_shufflevector(a, b, 0, 1, 2, 3, 4, 5, 6, 7);
 }
@@ -164,7 +170,9 @@ struct P2GArgs {
 };
 
 //! max(a, b) for a not NaN: a NaN b is ignored, as std::fmax does (and it vectorises).
-GEN4D_HD inline double max_of(double a, double b) { return b > a ? b : a; }
+GEN4D_HD inline double max_of(double a, double b) {
+  return b > a ? b : a;
+}
 
 //! Bound of particle i's largest P2G contribution, {mass, momentum}, for the quanta.
 GEN4D_HD inline void p2g_bound(const P2GArgs& a, long i, double* bound) {

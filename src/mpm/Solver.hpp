@@ -174,9 +174,9 @@ class Solver {
   // Host P2G's slab colouring: each particle's slab, the particles by slab, slab offsets.
   std::vector<std::int32_t> slab_of_;
   std::vector<long> order_, slab_start_;
-  std::vector<int> dest_;                                // migration: owner per particle
-  std::array<std::vector<int>, 3> rank_part_;            // owner_of's term per axis and node
-  std::vector<std::uint8_t> status_;                     // guard, per particle
+  std::vector<int> dest_;                      // migration: owner per particle
+  std::array<std::vector<int>, 3> rank_part_;  // owner_of's term per axis and node
+  std::vector<std::uint8_t> status_;           // guard, per particle
   bool guarded_ = false;  // status_ already holds this substep's guard (fused into G2P)
   std::vector<kernels::GridCondition> grid_conditions_;  // of the substep at hand
 #if defined(GEN4D_CUDA)

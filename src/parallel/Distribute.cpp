@@ -112,12 +112,16 @@ std::size_t RowExchange::exchange(MPI_Comm comm, const std::vector<int>& dest) {
     }
     for (const auto& c : columns_)
       if (c->row_bytes() > 0) c->truncate(end);
-    keep.assign(end, 1);
   }
-  for (std::size_t c = 0; c < columns_.size(); ++c)
-    if (columns_[c]->row_bytes() > 0)
+  const bool all_kept = sent == 0 || fill_from_end_;
+  for (std::size_t c = 0; c < columns_.size(); ++c) {
+    if (columns_[c]->row_bytes() == 0) continue;
+    if (all_kept)
+      columns_[c]->append(recvbuf.data(), static_cast<std::size_t>(in_rows), stride, offset[c]);
+    else
       columns_[c]->rebuild(keep, recvbuf.data(), static_cast<std::size_t>(in_rows), stride,
                            offset[c]);
+  }
   return sent;
 }
 

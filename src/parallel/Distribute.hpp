@@ -65,6 +65,9 @@ class RowExchange {
     //! `stride` bytes at byte `offset` within each record.
     virtual void rebuild(const std::vector<std::uint8_t>& keep, const unsigned char* packed,
                          std::size_t n, std::size_t stride, std::size_t offset) = 0;
+    //! Appends `n` rows read from `packed` records (as rebuild, every row kept).
+    virtual void append(const unsigned char* packed, std::size_t n, std::size_t stride,
+                        std::size_t offset) = 0;
     //! Copies row `from` onto row `to`; keeps the first `rows` rows.
     virtual void move_row(std::size_t from, std::size_t to) = 0;
     virtual void truncate(std::size_t rows) = 0;
@@ -87,6 +90,8 @@ struct RowExchange::Column final : RowExchange::ColumnBase {
   }
   void rebuild(const std::vector<std::uint8_t>& keep, const unsigned char* packed, std::size_t n,
                std::size_t stride, std::size_t offset) override;
+  void append(const unsigned char* packed, std::size_t n, std::size_t stride,
+              std::size_t offset) override;
   void move_row(std::size_t from, std::size_t to) override {
     std::memcpy(data.data() + to * width, data.data() + from * width, width * sizeof(T));
   }
@@ -106,6 +111,14 @@ void RowExchange::Column<T>::rebuild(const std::vector<std::uint8_t>& keep,
       for (std::size_t k = 0; k < width; ++k) data[out * width + k] = data[i * width + k];
     ++out;
   }
+  data.resize(out * width);
+  append(packed, n, stride, offset);
+}
+
+template <class T>
+void RowExchange::Column<T>::append(const unsigned char* packed, std::size_t n, std::size_t stride,
+                                    std::size_t offset) {
+  const std::size_t out = rows();
   data.resize((out + n) * width);
   for (std::size_t r = 0; r < n; ++r)
     std::memcpy(data.data() + (out + r) * width, packed + r * stride + offset, width * sizeof(T));
