@@ -1,5 +1,5 @@
 //! Explicit MLS-MPM with quadratic B-splines and APIC transfers on a distributed grid
-//! (PhysGaussian seed §3.3; DESIGN.md §4).
+//! (PhysGaussian §3.3).
 //
 // Decomposition: the grid is a PETSc DMDA over nodes with a box stencil of width 1 and
 // per-axis slabs balanced by the particle count. A particle belongs to the rank that owns its
