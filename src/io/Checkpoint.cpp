@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -62,14 +63,8 @@ namespace {
 void write_contents(hid_t file, const CheckpointState& s) {
   h5::write_attr(file, "format", std::string(kCheckpointFormat));
   h5::write_attr(file, "format_version", kCheckpointFormatVersion);
-  h5::write_attr(file, "step", static_cast<long>(s.step));
-  h5::write_attr(file, "time", s.time);
-  h5::write_attr(file, "frame_index", static_cast<long>(s.frame_index));
-  h5::write_attr(file, "next_frame_time", s.next_frame_time);
+  write_run_clock(file, s);
   h5::write_attr(file, "node_dims", s.node_dims);
-  h5::write_attr(file, "deck", s.deck_text);
-  h5::Handle extras = h5::create_group(file, "/extras");
-  for (const auto& [name, value] : s.extras) h5::write_attr(extras.get(), name, value);
   for (const char* name : {"position", "velocity"}) {
     h5::Handle dataset = h5::create_grid_dataset(file, name, H5T_IEEE_F64LE, s.node_dims, 3);
     h5::write_box(dataset.get(), H5T_NATIVE_DOUBLE, s.owned, 3, name[0] == 'p' ? s.x : s.v);
@@ -106,56 +101,22 @@ CheckpointMeta read_meta_serial(const std::string& path) {
   h5::Handle file = h5::open_file_serial(path);
   CheckpointMeta meta;
   meta.node_dims = check_layout(file.get(), path);
-  meta.step = static_cast<int>(h5::read_long_attr(file.get(), "step", path));
-  meta.time = h5::read_double_attr(file.get(), "time", path);
-  meta.frame_index = static_cast<int>(h5::read_long_attr(file.get(), "frame_index", path));
-  meta.next_frame_time = h5::read_double_attr(file.get(), "next_frame_time", path);
-  meta.deck_text = h5::read_string_attr(file.get(), "deck", path);
-  h5::Handle extras = h5::open_group(file.get(), "/extras", h5::Failure::Input, path);
-  for (const std::string& name : h5::attr_names(extras.get())) {
-    meta.extras[name] = h5::read_double_attr(extras.get(), name, path + " /extras");
-  }
+  static_cast<RunClock&>(meta) = read_run_clock(file.get(), path);
   return meta;
 }
 
-// Byte packing of CheckpointMeta for the broadcast from rank 0.
-using io::bytes::put;
-using io::bytes::Unpacker;
-
 std::string pack(const CheckpointMeta& m) {
   std::string buffer;
-  put(buffer, m.step);
-  put(buffer, m.time);
-  put(buffer, m.frame_index);
-  put(buffer, m.next_frame_time);
-  put(buffer, m.node_dims);
-  put(buffer, m.deck_text);
-  put(buffer, m.extras.size());
-  for (const auto& [name, value] : m.extras) {
-    put(buffer, name);
-    put(buffer, value);
-  }
+  pack_run_clock(buffer, m);
+  bytes::put(buffer, m.node_dims);
   return buffer;
 }
 
 CheckpointMeta unpack(const std::string& buffer) {
   CheckpointMeta m;
-  Unpacker in{buffer};
-  in.get(m.step);
-  in.get(m.time);
-  in.get(m.frame_index);
-  in.get(m.next_frame_time);
+  bytes::Unpacker in{buffer};
+  unpack_run_clock(in, m);
   in.get(m.node_dims);
-  in.get(m.deck_text);
-  std::size_t count = 0;
-  in.get(count);
-  for (std::size_t i = 0; i < count; ++i) {
-    std::string name;
-    double value = 0;
-    in.get(name);
-    in.get(value);
-    m.extras[name] = value;
-  }
   return m;
 }
 
@@ -165,18 +126,63 @@ std::string checkpoint_path(const std::string& dir, int step) {
   return (fs::path(dir) / ("checkpoint_" + padded(step) + ".h5")).string();
 }
 
-std::string write_checkpoint(MPI_Comm comm, const std::string& dir, const CheckpointState& state,
-                             int keep) {
+void write_run_clock(hid_t file, const RunClock& c) {
+  h5::write_attr(file, "step", static_cast<long>(c.step));
+  h5::write_attr(file, "time", c.time);
+  h5::write_attr(file, "frame_index", static_cast<long>(c.frame_index));
+  h5::write_attr(file, "next_frame_time", c.next_frame_time);
+  h5::write_attr(file, "deck", c.deck_text);
+  h5::Handle extras = h5::create_group(file, "/extras");
+  for (const auto& [name, value] : c.extras) h5::write_attr(extras.get(), name, value);
+}
+
+RunClock read_run_clock(hid_t file, const std::string& path) {
+  RunClock c;
+  c.step = static_cast<int>(h5::read_long_attr(file, "step", path));
+  c.time = h5::read_double_attr(file, "time", path);
+  c.frame_index = static_cast<int>(h5::read_long_attr(file, "frame_index", path));
+  c.next_frame_time = h5::read_double_attr(file, "next_frame_time", path);
+  c.deck_text = h5::read_string_attr(file, "deck", path);
+  h5::Handle extras = h5::open_group(file, "/extras", h5::Failure::Input, path);
+  for (const std::string& name : h5::attr_names(extras.get()))
+    c.extras[name] = h5::read_double_attr(extras.get(), name, path + " /extras");
+  return c;
+}
+
+void pack_run_clock(std::string& buffer, const RunClock& c) {
+  bytes::put(buffer, c.step);
+  bytes::put(buffer, c.time);
+  bytes::put(buffer, c.frame_index);
+  bytes::put(buffer, c.next_frame_time);
+  bytes::put(buffer, c.deck_text);
+  bytes::put(buffer, c.extras.size());
+  for (const auto& [name, value] : c.extras) {
+    bytes::put(buffer, name);
+    bytes::put(buffer, value);
+  }
+}
+
+void unpack_run_clock(bytes::Unpacker& in, RunClock& c) {
+  in.get(c.step);
+  in.get(c.time);
+  in.get(c.frame_index);
+  in.get(c.next_frame_time);
+  in.get(c.deck_text);
+  std::size_t count = 0;
+  in.get(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    std::string name;
+    double value = 0;
+    in.get(name);
+    in.get(value);
+    c.extras[name] = value;
+  }
+}
+
+void prepare_checkpoint_dir(MPI_Comm comm, const std::string& dir, const std::string& local_error) {
   int rank = 0;
   MPI_Comm_rank(comm, &rank);
-  const std::string final_path = checkpoint_path(dir, state.step);
-  const std::string temp_path =
-      (fs::path(dir) / (".checkpoint_" + padded(state.step) + ".h5.tmp")).string();
-  std::string error;
-  if (!state.owned.inside(state.node_dims) ||
-      (!state.owned.empty() && (state.x == nullptr || state.v == nullptr))) {
-    error = final_path + ": this rank's node box is outside the grid or has no data";
-  }
+  std::string error = local_error;
   std::error_code ec;
   if (rank == 0 && error.empty() && !fs::is_directory(dir, ec) &&
       !fs::create_directories(dir, ec)) {
@@ -184,10 +190,19 @@ std::string write_checkpoint(MPI_Comm comm, const std::string& dir, const Checkp
   }
   error = h5::first_error(comm, error);
   if (!error.empty()) throw RuntimeError(error);
+}
 
+std::string commit_checkpoint_file(MPI_Comm comm, const std::string& dir, int step, int keep,
+                                   const std::function<void(hid_t)>& fill) {
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  const std::string final_path = checkpoint_path(dir, step);
+  const std::string temp_path =
+      (fs::path(dir) / (".checkpoint_" + padded(step) + ".h5.tmp")).string();
+  std::string error;
   try {
     h5::Handle file = h5::create_file(comm, temp_path);
-    write_contents(file.get(), state);
+    fill(file.get());
     file.close(h5::Failure::Runtime, "cannot finish the file");
   } catch (const std::exception& e) {
     error = temp_path + ": " + e.what();
@@ -195,7 +210,7 @@ std::string write_checkpoint(MPI_Comm comm, const std::string& dir, const Checkp
   error = h5::first_error(comm, error);
   if (rank == 0) {
     if (error.empty() && std::rename(temp_path.c_str(), final_path.c_str()) != 0) {
-      error = "cannot rename " + temp_path + " to " + final_path;
+      error = "cannot rename " + temp_path + " to " + final_path + ": " + std::strerror(errno);
     }
     if (error.empty()) {
       prune_checkpoints(dir, keep);
@@ -207,6 +222,19 @@ std::string write_checkpoint(MPI_Comm comm, const std::string& dir, const Checkp
   error = h5::first_error(comm, error);
   if (!error.empty()) throw RuntimeError(error);
   return final_path;
+}
+
+std::string write_checkpoint(MPI_Comm comm, const std::string& dir, const CheckpointState& state,
+                             int keep) {
+  const std::string final_path = checkpoint_path(dir, state.step);
+  std::string error;
+  if (!state.owned.inside(state.node_dims) ||
+      (!state.owned.empty() && (state.x == nullptr || state.v == nullptr))) {
+    error = final_path + ": this rank's node box is outside the grid or has no data";
+  }
+  prepare_checkpoint_dir(comm, dir, error);
+  return commit_checkpoint_file(comm, dir, state.step, keep,
+                                [&](hid_t file) { write_contents(file, state); });
 }
 
 CheckpointMeta read_checkpoint_meta(MPI_Comm comm, const std::string& path) {

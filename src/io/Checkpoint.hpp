@@ -4,42 +4,64 @@
 #include <mpi.h>
 
 #include <array>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
 
+#include "io/BytePack.hpp"
 #include "io/GridBox.hpp"
+#include "io/Hdf5.hpp"
 
 namespace gen4d::io {
 
 inline constexpr const char* kCheckpointFormat = "gen4d-checkpoint";
 inline constexpr long kCheckpointFormatVersion = 1;
 
-//! What a rank hands to write_checkpoint: the run's clock, its deck, and its owned node box of
-//! positions and velocities (3 interleaved doubles per node, x-fastest over the box).
-struct CheckpointState {
+//! The run's clock and deck, which every checkpoint (grid or particles) stores alike.
+struct RunClock {
   int step = 0;
   double time = 0;
   int frame_index = 0;         //!< index of the next frame to write
   double next_frame_time = 0;  //!< simulated time of the next frame
   std::string deck_text;
+  std::map<std::string, double> extras;  //!< solver scalars a restart must restore
+};
+
+//! What a rank hands to write_checkpoint: the run's clock, its deck, and its owned node box of
+//! positions and velocities (3 interleaved doubles per node, x-fastest over the box).
+struct CheckpointState : RunClock {
   std::array<long, 3> node_dims{0, 0, 0};
   NodeBox owned;
   const double* x = nullptr;
   const double* v = nullptr;
-  std::map<std::string, double> extras;  //!< solver scalars a restart must restore
 };
 
 //! Everything in a checkpoint except the node arrays.
-struct CheckpointMeta {
-  int step = 0;
-  double time = 0;
-  int frame_index = 0;
-  double next_frame_time = 0;
-  std::string deck_text;
+struct CheckpointMeta : RunClock {
   std::array<long, 3> node_dims{0, 0, 0};
-  std::map<std::string, double> extras;
 };
+
+// ---- the parts every checkpoint format shares ----------------------------------------------
+
+//! The clock as root attributes (step, time, frame_index, next_frame_time, deck) and the
+//! /extras group.
+void write_run_clock(hid_t file, const RunClock& clock);
+//! Reads what write_run_clock wrote; InputError naming `path` for a missing or bad entry.
+RunClock read_run_clock(hid_t file, const std::string& path);
+//! Byte packing of the clock for a broadcast from the rank that read it.
+void pack_run_clock(std::string& buffer, const RunClock& clock);
+void unpack_run_clock(bytes::Unpacker& in, RunClock& clock);
+
+//! First step of writing a checkpoint: throws RuntimeError on every rank when any rank has a
+//! `local_error`, or when rank 0 cannot create `dir`.
+void prepare_checkpoint_dir(MPI_Comm comm, const std::string& dir, const std::string& local_error);
+//! Second step: writes checkpoint_path(dir, step) collectively as a hidden temporary filled by
+//! fill(file) on every rank; rank 0 renames it and deletes all but the newest `keep`
+//! checkpoints (keep <= 0 keeps all). Returns the path on every rank once it exists. On failure
+//! nothing is left under the final name and every rank throws RuntimeError.
+std::string commit_checkpoint_file(MPI_Comm comm, const std::string& dir, int step, int keep,
+                                   const std::function<void(hid_t)>& fill);
 
 //! dir/checkpoint_<step, 8 digits>.h5
 std::string checkpoint_path(const std::string& dir, int step);

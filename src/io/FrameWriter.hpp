@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "io/FrameLayout.hpp"
+#include "io/FramesFile.hpp"
 #include "io/GridBox.hpp"
 #include "io/Hdf5.hpp"
 
@@ -40,21 +41,14 @@ class FrameWriter {
 
   const std::vector<FrameInfo>& frames() const { return frames_; }
   const GridMeta& meta() const { return meta_; }
-  const std::string& path() const { return path_; }
-  const std::string& xdmf_path() const { return xdmf_path_; }
+  const std::string& path() const { return file_.path(); }
+  const std::string& xdmf_path() const { return file_.xdmf_path(); }
 
  private:
-  FrameWriter(MPI_Comm comm, const std::string& h5_path, h5::Handle file, GridMeta meta);
-  //! Throws RuntimeError on every rank when `local_error` is set on any.
-  void raise_if_any(const std::string& local_error) const;
-  void flush();
-  void update_index();
+  FrameWriter(FramesFile file, GridMeta meta);
+  void commit();
 
-  MPI_Comm comm_;
-  int rank_ = 0;
-  std::string path_;
-  std::string xdmf_path_;
-  h5::Handle file_;
+  FramesFile file_;
   GridMeta meta_;
   std::vector<FrameInfo> frames_;
   bool has_occupancy_ = false;

@@ -220,16 +220,10 @@ void write_checkpoint_contents(hid_t file, const ParticleCheckpointState& s,
                                const DenseBlock& dense) {
   h5::write_attr(file, "format", std::string(kParticleCheckpointFormat));
   h5::write_attr(file, "format_version", kParticleCheckpointFormatVersion);
-  h5::write_attr(file, "step", static_cast<long>(s.step));
-  h5::write_attr(file, "time", s.time);
-  h5::write_attr(file, "frame_index", static_cast<long>(s.frame_index));
-  h5::write_attr(file, "next_frame_time", s.next_frame_time);
+  io::write_run_clock(file, s);
   h5::write_attr(file, "particle_count", static_cast<long>(s.total_particles));
-  h5::write_attr(file, "deck", s.deck_text);
   h5::write_string_list_attr(file, "state_names", s.state_names);
   if (!s.extra_names.empty()) h5::write_string_list_attr(file, "extra_names", s.extra_names);
-  h5::Handle extras = h5::create_group(file, "/extras");
-  for (const auto& [name, value] : s.extras) h5::write_attr(extras.get(), name, value);
   const auto rows = static_cast<hsize_t>(s.total_particles);
   const auto begin = static_cast<hsize_t>(dense.block.begin);
   const auto count = static_cast<hsize_t>(dense.block.count);
@@ -297,71 +291,38 @@ ParticleCheckpointMeta read_meta_serial(const std::string& path) {
   h5::Handle file = h5::open_file_serial(path);
   ParticleCheckpointMeta meta;
   meta.total_particles = check_checkpoint_layout(file.get(), path);
-  meta.step = static_cast<int>(h5::read_long_attr(file.get(), "step", path));
-  meta.time = h5::read_double_attr(file.get(), "time", path);
-  meta.frame_index = static_cast<int>(h5::read_long_attr(file.get(), "frame_index", path));
-  meta.next_frame_time = h5::read_double_attr(file.get(), "next_frame_time", path);
-  meta.deck_text = h5::read_string_attr(file.get(), "deck", path);
+  static_cast<io::RunClock&>(meta) = io::read_run_clock(file.get(), path);
   meta.state_names = h5::read_string_list_attr(file.get(), "state_names", path);
   if (meta.state_names.size() > static_cast<std::size_t>(kStateSize)) {
     throw InputError(path + fmt::format(": {} state_names, at most {} are supported",
                                         meta.state_names.size(), kStateSize));
   }
   meta.extra_names = read_extra_names(file.get(), path);
-  h5::Handle extras = h5::open_group(file.get(), "/extras", h5::Failure::Input, path);
-  for (const std::string& name : h5::attr_names(extras.get())) {
-    meta.extras[name] = h5::read_double_attr(extras.get(), name, path + " /extras");
-  }
   return meta;
 }
 
 // Byte packing of ParticleCheckpointMeta for the broadcast from rank 0.
-using io::bytes::put;
-using io::bytes::Unpacker;
-
 std::string pack(const ParticleCheckpointMeta& m) {
   std::string buffer;
-  put(buffer, m.step);
-  put(buffer, m.time);
-  put(buffer, m.frame_index);
-  put(buffer, m.next_frame_time);
-  put(buffer, m.total_particles);
-  put(buffer, m.deck_text);
-  put(buffer, m.state_names.size());
-  for (const std::string& name : m.state_names) put(buffer, name);
-  put(buffer, m.extra_names.size());
-  for (const std::string& name : m.extra_names) put(buffer, name);
-  put(buffer, m.extras.size());
-  for (const auto& [name, value] : m.extras) {
-    put(buffer, name);
-    put(buffer, value);
+  io::pack_run_clock(buffer, m);
+  io::bytes::put(buffer, m.total_particles);
+  for (const auto* names : {&m.state_names, &m.extra_names}) {
+    io::bytes::put(buffer, names->size());
+    for (const std::string& name : *names) io::bytes::put(buffer, name);
   }
   return buffer;
 }
 
 ParticleCheckpointMeta unpack(const std::string& buffer) {
   ParticleCheckpointMeta m;
-  Unpacker in{buffer};
-  in.get(m.step);
-  in.get(m.time);
-  in.get(m.frame_index);
-  in.get(m.next_frame_time);
+  io::bytes::Unpacker in{buffer};
+  io::unpack_run_clock(in, m);
   in.get(m.total_particles);
-  in.get(m.deck_text);
-  std::size_t count = 0;
-  in.get(count);
-  m.state_names.resize(count);
-  for (std::string& name : m.state_names) in.get(name);
-  in.get(count);
-  m.extra_names.resize(count);
-  for (std::string& name : m.extra_names) in.get(name);
-  in.get(count);
-  for (std::size_t i = 0; i < count; ++i) {
-    std::string name;
-    double value = 0;
-    in.get(name);
-    in.get(value);
-    m.extras[name] = value;
+  for (auto* names : {&m.state_names, &m.extra_names}) {
+    std::size_t count = 0;
+    in.get(count);
+    names->resize(count);
+    for (std::string& name : *names) in.get(name);
   }
   return m;
 }
@@ -475,29 +436,6 @@ std::string field_name_problem(const std::string& name) {
 bool all_digits(const std::string& s) {
   return !s.empty() &&
          std::all_of(s.begin(), s.end(), [](unsigned char c) { return std::isdigit(c); });
-}
-
-std::string xml_escaped(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
 }
 
 std::vector<ParticleFrameInfo> list_particle_frames(hid_t file, const std::string& path) {
@@ -649,10 +587,7 @@ int id_block_owner(std::int64_t id, std::int64_t total, int size) {
 
 std::string write_particle_checkpoint(MPI_Comm comm, const std::string& dir,
                                       const ParticleCheckpointState& state, int keep) {
-  const int rank = comm_rank(comm);
   const std::string final_path = io::checkpoint_path(dir, state.step);
-  const std::string temp_path =
-      (fs::path(dir) / fmt::format(".checkpoint_{:08d}.h5.tmp", state.step)).string();
   std::string error;
   if (state.particles == nullptr) {
     error = final_path + ": no particles given";
@@ -667,36 +602,13 @@ std::string write_particle_checkpoint(MPI_Comm comm, const std::string& dir,
     error = final_path + fmt::format(": {} extra names for particles with {} extra values",
                                      state.extra_names.size(), state.particles->extra_width);
   }
-  std::error_code ec;
-  if (rank == 0 && error.empty() && !fs::is_directory(dir, ec) &&
-      !fs::create_directories(dir, ec)) {
-    error = dir + ": cannot create the checkpoint directory (" + ec.message() + ")";
-  }
-  throw_if_any<RuntimeError>(comm, error);
+  io::prepare_checkpoint_dir(comm, dir, error);
   const DenseBlock dense =
       to_blocks(comm, state.total_particles, kCheckpointRow + state.particles->extra_width,
                 checkpoint_rows(*state.particles), final_path + ": ");
-  try {
-    h5::Handle file = h5::create_file(comm, temp_path);
-    write_checkpoint_contents(file.get(), state, dense);
-    file.close(h5::Failure::Runtime, "cannot finish the file");
-  } catch (const std::exception& e) {
-    error = temp_path + ": " + e.what();
-  }
-  error = h5::first_error(comm, error);
-  if (rank == 0) {
-    if (error.empty() && std::rename(temp_path.c_str(), final_path.c_str()) != 0) {
-      error = "cannot rename " + temp_path + " to " + final_path + ": " + std::strerror(errno);
-    }
-    if (error.empty()) {
-      io::prune_checkpoints(dir, keep);
-    } else {
-      std::remove(temp_path.c_str());
-    }
-  }
-  // Also the barrier after which every rank sees the renamed file.
-  throw_if_any<RuntimeError>(comm, error);
-  return final_path;
+  return io::commit_checkpoint_file(comm, dir, state.step, keep, [&](hid_t file) {
+    write_checkpoint_contents(file, state, dense);
+  });
 }
 
 ParticleCheckpointMeta read_particle_checkpoint_meta(MPI_Comm comm, const std::string& path) {
@@ -748,20 +660,13 @@ ParticleCheckpointMeta read_particle_checkpoint(MPI_Comm comm, const std::string
 
 // ---- frames --------------------------------------------------------------------------------
 
-ParticleFrameWriter::ParticleFrameWriter(MPI_Comm comm, const std::string& h5_path,
-                                         io::h5::Handle file, std::int64_t total)
-    : comm_(comm),
-      path_(h5_path),
-      xdmf_path_(io::xdmf_path_for(h5_path)),
-      file_(std::move(file)),
-      total_(total) {
-  MPI_Comm_rank(comm_, &rank_);
-}
+ParticleFrameWriter::ParticleFrameWriter(io::FramesFile file, std::int64_t total)
+    : file_(std::move(file)), total_(total) {}
 
 ParticleFrameWriter::ParticleFrameWriter(MPI_Comm comm, const std::string& h5_path,
                                          std::int64_t total_particles,
                                          const std::map<std::string, std::string>& attributes)
-    : ParticleFrameWriter(comm, h5_path, io::h5::Handle(), total_particles) {
+    : total_(total_particles) {
   if (total_particles < 0 || total_particles > kMaxParticles) {
     throw RuntimeError(h5_path +
                        fmt::format(": particle count {} is out of range", total_particles));
@@ -771,20 +676,13 @@ ParticleFrameWriter::ParticleFrameWriter(MPI_Comm comm, const std::string& h5_pa
       throw RuntimeError(h5_path + ": attribute '" + entry.first + "' is reserved");
     }
   }
-  std::string error;
-  try {
-    file_ = h5::create_file(comm, h5_path);
-    for (const auto& [name, value] : attributes) h5::write_attr(file_.get(), name, value);
-    h5::write_attr(file_.get(), "format", std::string(kParticleFramesFormat));
-    h5::write_attr(file_.get(), "format_version", kParticleFramesFormatVersion);
-    h5::write_attr(file_.get(), "particle_count", static_cast<long>(total_particles));
-    h5::create_group(file_.get(), io::kFramesGroup);
-  } catch (const std::exception& e) {
-    error = h5_path + ": " + e.what();
-  }
-  raise_if_any(error);
-  flush();
-  update_index();
+  file_ = io::FramesFile::create(comm, h5_path, [&](hid_t root) {
+    for (const auto& [name, value] : attributes) h5::write_attr(root, name, value);
+    h5::write_attr(root, "format", std::string(kParticleFramesFormat));
+    h5::write_attr(root, "format_version", kParticleFramesFormatVersion);
+    h5::write_attr(root, "particle_count", static_cast<long>(total_particles));
+  });
+  commit();
 }
 
 ParticleFrameWriter ParticleFrameWriter::open_append(MPI_Comm comm, const std::string& h5_path,
@@ -818,50 +716,28 @@ ParticleFrameWriter ParticleFrameWriter::open_append(MPI_Comm comm, const std::s
     error = e.what();
   }
   throw_if_any<InputError>(comm, error);
-  ParticleFrameWriter writer(comm, h5_path, std::move(file), total);
+  ParticleFrameWriter writer(io::FramesFile(comm, h5_path, std::move(file)), total);
   if (!h5::link_exists(writer.file_.get(), io::kFramesGroup)) {
     h5::create_group(writer.file_.get(), io::kFramesGroup);
   }
   for (const ParticleFrameInfo& frame : stored) {
-    if (frame.step <= keep_up_to_step) {
+    if (frame.step <= keep_up_to_step)
       writer.frames_.push_back(frame);
-    } else {
-      // Unlinking is collective metadata work, identical on every rank.
-      const std::string group = io::frame_group(frame.index);
-      h5::check(H5Ldelete(writer.file_.get(), group.c_str(), H5P_DEFAULT), h5::Failure::Runtime,
-                h5_path + ": cannot delete " + group);
-    }
+    else
+      writer.file_.remove_group(io::frame_group(frame.index));
   }
-  writer.flush();
-  writer.update_index();
+  writer.commit();
   return writer;
 }
 
-void ParticleFrameWriter::raise_if_any(const std::string& local_error) const {
-  throw_if_any<RuntimeError>(comm_, local_error);
-}
-
-void ParticleFrameWriter::flush() {
-  h5::check(H5Fflush(file_.get(), H5F_SCOPE_GLOBAL), h5::Failure::Runtime,
-            path_ + ": cannot flush");
-}
-
-void ParticleFrameWriter::update_index() {
-  std::string error;
-  if (rank_ == 0) {
-    try {
-      const std::string h5_name = fs::path(path_).filename().string();
-      io::write_text_atomically(xdmf_path_, particle_xdmf_text(h5_name, total_, frames_));
-    } catch (const std::exception& e) {
-      error = e.what();
-    }
-  }
-  raise_if_any(error);
+void ParticleFrameWriter::commit() {
+  file_.commit(
+      [&](const std::string& h5_name) { return particle_xdmf_text(h5_name, total_, frames_); });
 }
 
 void ParticleFrameWriter::write_frame(double time, int step, const Particles& particles,
                                       const std::vector<ParticleScalar>& fields) {
-  const std::string where = path_ + fmt::format(": frame at step {}: ", step);
+  const std::string where = path() + fmt::format(": frame at step {}: ", step);
   std::string error = inconsistent(particles);
   std::vector<std::string> names;
   for (const ParticleScalar& f : fields) {
@@ -875,13 +751,13 @@ void ParticleFrameWriter::write_frame(double time, int step, const Particles& pa
     }
     names.push_back(f.name);
   }
-  raise_if_any(error.empty() ? "" : where + error);
+  file_.raise_if_any(error.empty() ? "" : where + error);
   std::string joined;
   for (const std::string& name : names) joined += name + "\n";
-  if (broadcast_string(comm_, joined, 0) != joined) {
+  if (broadcast_string(file_.comm(), joined, 0) != joined) {
     error = where + "the scalar fields differ between ranks";
   }
-  raise_if_any(error);
+  file_.raise_if_any(error);
 
   const int nf = static_cast<int>(fields.size());
   const int width = 7 + nf;
@@ -893,94 +769,54 @@ void ParticleFrameWriter::write_frame(double time, int step, const Particles& pa
     std::copy_n(&particles.v[3 * i], 3, r + 4);
     for (int f = 0; f < nf; ++f) r[7 + f] = fields[f].values[i];
   }
-  const DenseBlock dense = to_blocks(comm_, total_, width, rows, where);
+  const DenseBlock dense = to_blocks(file_.comm(), total_, width, rows, where);
 
   const int index = frames_.empty() ? 0 : frames_.back().index + 1;
-  const std::string group_name = io::frame_group(index);
   const auto n = static_cast<hsize_t>(total_);
   const auto begin = static_cast<hsize_t>(dense.block.begin);
   const auto count = static_cast<hsize_t>(dense.block.count);
-  try {
-    h5::Handle group = h5::create_group(file_.get(), group_name);
-    h5::write_attr(group.get(), "time", time);
-    h5::write_attr(group.get(), "step", static_cast<long>(step));
-    h5::write_string_list_attr(group.get(), "fields", names);
+  file_.write_group(io::frame_group(index), where, [&](hid_t group) {
+    h5::write_attr(group, "time", time);
+    h5::write_attr(group, "step", static_cast<long>(step));
+    h5::write_string_list_attr(group, "fields", names);
     for (const char* name : {"position", "velocity"}) {
       const std::vector<double> values = column(dense, name[0] == 'p' ? 1 : 4, 3);
-      h5::Handle dataset = h5::create_rows_dataset(group.get(), name, H5T_IEEE_F64LE, n, 3);
+      h5::Handle dataset = h5::create_rows_dataset(group, name, H5T_IEEE_F64LE, n, 3);
       h5::write_rows(dataset.get(), H5T_NATIVE_DOUBLE, begin, count, 3, values.data());
     }
-    h5::Handle alive = h5::create_rows_dataset(group.get(), "alive", H5T_STD_U8LE, n, 1);
+    h5::Handle alive = h5::create_rows_dataset(group, "alive", H5T_STD_U8LE, n, 1);
     h5::write_rows(alive.get(), H5T_NATIVE_UINT8, begin, count, 1, dense.alive.data());
     for (int f = 0; f < nf; ++f) {
       const std::vector<double> values = column(dense, 7 + f, 1);
-      h5::Handle dataset = h5::create_rows_dataset(group.get(), names[f], H5T_IEEE_F64LE, n, 1);
+      h5::Handle dataset = h5::create_rows_dataset(group, names[f], H5T_IEEE_F64LE, n, 1);
       h5::write_rows(dataset.get(), H5T_NATIVE_DOUBLE, begin, count, 1, values.data());
     }
-  } catch (const std::exception& e) {
-    error = where + e.what();
-  }
-  error = h5::first_error(comm_, error);
-  if (!error.empty()) {
-    // Drop the partial group so the file holds only complete frames.
-    if (h5::link_exists(file_.get(), group_name)) {
-      H5Ldelete(file_.get(), group_name.c_str(), H5P_DEFAULT);
-    }
-    throw RuntimeError(error);
-  }
+  });
   frames_.push_back({index, step, time, names});
-  flush();
-  update_index();
+  commit();
 }
 
 void ParticleFrameWriter::close() {
-  file_.close(h5::Failure::Runtime, path_ + ": cannot close");
+  file_.close();
 }
 
 std::string particle_xdmf_text(const std::string& h5_name, std::int64_t total_particles,
                                const std::vector<ParticleFrameInfo>& frames) {
-  const std::string file = xml_escaped(h5_name);
   const std::string n = std::to_string(total_particles);
-  auto data_item = [&](std::ostream& out, const std::string& dims, const char* number_type,
-                       int precision, const std::string& source) {
-    out << "        <DataItem Dimensions=\"" << dims << "\" NumberType=\"" << number_type
-        << "\" Precision=\"" << precision << "\" Format=\"HDF\">" << file << ":" << source
-        << "</DataItem>\n";
-  };
-  std::ostringstream out;
-  out.precision(17);  // times round-trip exactly
-  out << "<?xml version=\"1.0\" ?>\n"
-      << "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
-      << "<Xdmf Version=\"2.0\">\n"
-      << "  <Domain>\n"
-      << "    <Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  io::XdmfCollection x("particles", h5_name);
   for (const ParticleFrameInfo& frame : frames) {
     const std::string group = io::frame_group(frame.index);
-    out << "    <Grid Name=\"frame_" << frame.index << "\" GridType=\"Uniform\">\n"
-        << "      <Time Value=\"" << frame.time << "\"/>\n"
-        << "      <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n
-        << "\" NodesPerElement=\"1\"/>\n"
-        << "      <Geometry GeometryType=\"XYZ\">\n";
-    data_item(out, n + " 3", "Float", 8, group + "/position");
-    out << "      </Geometry>\n"
-        << "      <Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Node\">\n";
-    data_item(out, n + " 3", "Float", 8, group + "/velocity");
-    out << "      </Attribute>\n"
-        << "      <Attribute Name=\"alive\" AttributeType=\"Scalar\" Center=\"Node\">\n";
-    data_item(out, n, "UChar", 1, group + "/alive");
-    out << "      </Attribute>\n";
-    for (const std::string& field : frame.fields) {
-      out << "      <Attribute Name=\"" << xml_escaped(field)
-          << "\" AttributeType=\"Scalar\" Center=\"Node\">\n";
-      data_item(out, n, "Float", 8, group + "/" + field);
-      out << "      </Attribute>\n";
-    }
-    out << "    </Grid>\n";
+    x.begin_grid(
+        frame.index, frame.time,
+        "TopologyType=\"Polyvertex\" NumberOfElements=\"" + n + "\" NodesPerElement=\"1\"");
+    x.geometry(n + " 3", group + "/position");
+    x.attribute("velocity", "Vector", "Node", n + " 3", "Float", 8, group + "/velocity");
+    x.attribute("alive", "Scalar", "Node", n, "UChar", 1, group + "/alive");
+    for (const std::string& field : frame.fields)
+      x.attribute(field, "Scalar", "Node", n, "Float", 8, group + "/" + field);
+    x.end_grid();
   }
-  out << "    </Grid>\n"
-      << "  </Domain>\n"
-      << "</Xdmf>\n";
-  return out.str();
+  return x.text();
 }
 
 // ---- point clouds and images ---------------------------------------------------------------

@@ -18,6 +18,8 @@
 #include <string>
 #include <vector>
 
+#include "io/Checkpoint.hpp"
+#include "io/FramesFile.hpp"
 #include "io/Hdf5.hpp"
 #include "mpm/Particles.hpp"
 
@@ -42,32 +44,20 @@ int id_block_owner(std::int64_t id, std::int64_t total, int size);
 
 //! What write_particle_checkpoint stores: the run's clock, deck, the particle count N, the
 //! names of the used state slots, solver scalars, and this rank's particles.
-struct ParticleCheckpointState {
-  int step = 0;
-  double time = 0;
-  int frame_index = 0;         //!< index of the next frame to write
-  double next_frame_time = 0;  //!< simulated time of the next frame
-  std::string deck_text;
+struct ParticleCheckpointState : io::RunClock {
   std::int64_t total_particles = 0;      //!< N: ids are 0..N-1
   std::vector<std::string> state_names;  //!< at most kStateSize
   //! Names of the particles' extra values (as many as their extra_width), stored as the
   //! attribute extra_names with the dataset extra [N][W] (absent when W = 0).
   std::vector<std::string> extra_names;
-  std::map<std::string, double> extras;  //!< solver scalars a restart must restore
   const Particles* particles = nullptr;  //!< this rank's particles (any distribution)
 };
 
 //! Everything in a particle checkpoint except the particle arrays.
-struct ParticleCheckpointMeta {
-  int step = 0;
-  double time = 0;
-  int frame_index = 0;
-  double next_frame_time = 0;
-  std::string deck_text;
+struct ParticleCheckpointMeta : io::RunClock {
   std::int64_t total_particles = 0;
   std::vector<std::string> state_names;
   std::vector<std::string> extra_names;  //!< empty in a checkpoint without extra values
-  std::map<std::string, double> extras;
 };
 
 //! Writes dir/checkpoint_<step, 8 digits>.h5 (io::checkpoint_path) collectively: the file is
@@ -139,21 +129,14 @@ class ParticleFrameWriter {
 
   const std::vector<ParticleFrameInfo>& frames() const { return frames_; }
   std::int64_t total_particles() const { return total_; }
-  const std::string& path() const { return path_; }
-  const std::string& xdmf_path() const { return xdmf_path_; }
+  const std::string& path() const { return file_.path(); }
+  const std::string& xdmf_path() const { return file_.xdmf_path(); }
 
  private:
-  ParticleFrameWriter(MPI_Comm comm, const std::string& h5_path, io::h5::Handle file,
-                      std::int64_t total);
-  void raise_if_any(const std::string& local_error) const;
-  void flush();
-  void update_index();
+  ParticleFrameWriter(io::FramesFile file, std::int64_t total);
+  void commit();
 
-  MPI_Comm comm_;
-  int rank_ = 0;
-  std::string path_;
-  std::string xdmf_path_;
-  io::h5::Handle file_;
+  io::FramesFile file_;
   std::int64_t total_ = 0;
   std::vector<ParticleFrameInfo> frames_;
 };
