@@ -134,7 +134,8 @@ TEST(DeckErrors, NoGeometry) {
 TEST(DeckErrors, BadGeometryType) {
   auto e = edit("type = \"sphere\"", "type = \"spere\"");
   expect_error("geometry_type.toml", e.text, e.line, "geometry.1.type",
-               "must be one of box, sphere, capsule, mesh, vdb, splats, got 'spere' (did you mean "
+               "must be one of box, sphere, capsule, cylinder, mesh, vdb, splats, got 'spere' (did "
+               "you mean "
                "'sphere'?)");
 }
 

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -23,6 +24,7 @@
 #include "cli/RenderCommand.hpp"
 #include "core/BuildInfo.hpp"
 #include "core/Deck.hpp"
+#include "core/DeckUse.hpp"
 #include "core/Error.hpp"
 #include "core/Log.hpp"
 #include "core/Signals.hpp"
@@ -34,6 +36,7 @@
 #include "io/PngPreview.hpp"
 #include "io/SurfaceIO.hpp"
 #include "mpm/MpmSimulation.hpp"
+#include "parallel/Collective.hpp"
 
 namespace gen4d::cli {
 namespace fs = std::filesystem;
@@ -56,8 +59,62 @@ int rank_of(MPI_Comm c) {
   return r;
 }
 
-//! Refuses to clobber an earlier run's results unless asked to; decided on rank 0 so every
-//! rank takes the same branch.
+//! Files of a run that gen4d writes, as (folder under OUT, name prefix, suffix) with only
+//! digits between prefix and suffix; a suffix without a prefix is one exact name.
+struct RunFile {
+  const char* dir;
+  const char* prefix;
+  const char* suffix;
+};
+constexpr RunFile kRunFiles[] = {
+    {"", "checkpoint_", ".h5"},
+    {"", ".checkpoint_", ".h5.tmp"},
+    {"", "", "frames.h5"},
+    {"", "", "frames.xdmf"},
+    {"", "", "particles.h5"},
+    {"", "", "particles.xdmf"},
+    {"surface", "surface_", ".ply"},
+    {"surface", "surface_", ".obj"},
+    {"particles", "particles_", ".ply"},
+    {"volumes", "volume_", ".vdb"},
+    {"splats", "splats_", ".ply"},
+    {"png", "frame_", ".png"},
+};
+
+bool is_run_file(const std::string& name, const RunFile& f) {
+  const std::string prefix = f.prefix, suffix = f.suffix;
+  if (prefix.empty()) return name == suffix;
+  if (name.size() <= prefix.size() + suffix.size() || name.rfind(prefix, 0) != 0 ||
+      name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0)
+    return false;
+  return std::all_of(name.begin() + static_cast<long>(prefix.size()),
+                     name.end() - static_cast<long>(suffix.size()),
+                     [](unsigned char c) { return std::isdigit(c) != 0; });
+}
+
+//! Removes an earlier run's checkpoints and frames from `out` (kRunFiles only; nothing else).
+//! Returns how many files it removed.
+long clear_run_files(const std::string& out) {
+  long removed = 0;
+  for (const RunFile& f : kRunFiles) {
+    const fs::path dir = fs::path(out) / f.dir;
+    std::error_code ec;
+    std::vector<fs::path> doomed;
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+      if (it->is_regular_file() && is_run_file(it->path().filename().string(), f))
+        doomed.push_back(it->path());
+    for (const fs::path& p : doomed) {
+      if (!fs::remove(p, ec) && ec)
+        throw RuntimeError(p.string() + ": cannot remove the earlier run's file: " + ec.message());
+      ++removed;
+    }
+  }
+  return removed;
+}
+
+//! Refuses to clobber an earlier run's results unless asked to; with --overwrite, removes the
+//! earlier run's checkpoints and frames first (a later run's checkpoint_keep and restarts
+//! must not meet them). Decided on rank 0 so every rank takes the same branch.
 void check_output_dir(const std::string& out, bool overwrite, const char* frames = "frames.h5") {
   int exists = 0;
   if (rank_of(MPI_COMM_WORLD) == 0) exists = fs::exists(fs::path(out) / frames) ? 1 : 0;
@@ -65,6 +122,12 @@ void check_output_dir(const std::string& out, bool overwrite, const char* frames
   if (exists && !overwrite)
     throw InputError("--out " + out + ": already holds results (" + frames +
                      "); pass --overwrite to replace them or choose another directory");
+  if (!overwrite) return;
+  parallel::on_rank0(MPI_COMM_WORLD, "rank 0 could not clear the output directory", [&] {
+    const long removed = clear_run_files(out);
+    if (removed > 0)
+      log::info("--overwrite: removed {} file(s) of the earlier run in {}", removed, out);
+  });
 }
 
 int run_mpm(mpm::MpmSimulation& sim, const std::string& out, bool append) {
@@ -424,6 +487,7 @@ int dispatch(int argc, char** argv) {
   if (*info) return cmd_info();
   if (*diag) {
     const Config cfg = load_deck(dg_deck, dg_sets);
+    check_deck_use(cfg, DeckUser::Diagnose);
     std::stringstream ss(dg_effects);
     for (std::string e; std::getline(ss, e, ',');)
       if (!e.empty() && std::find(dg.effects.begin(), dg.effects.end(), e) == dg.effects.end())

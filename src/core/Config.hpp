@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "core/Curve.hpp"
+
 namespace gen4d {
 
 using Vec3d = std::array<double, 3>;
@@ -23,14 +25,16 @@ struct BoxRegion {
 
 //! One solid in the union that makes up the object.
 struct GeometryConfig {
-  std::string type;  //!< "box" | "sphere" | "capsule" | "mesh" | "vdb" | "splats"
+  //! "box" | "sphere" | "capsule" | "cylinder" | "mesh" | "vdb" | "splats"
+  std::string type;
   std::string name;  //!< optional, unique; what a [[material]] entry's `geometry` refers to
   // box
   Vec3d lo{0, 0, 0}, hi{0, 0, 0};
   // sphere
   Vec3d center{0, 0, 0};
   double radius = 0;
-  // capsule: segment a-b with radius
+  // capsule: points within radius of the segment a-b; cylinder: the flat-ended cylinder with
+  // axis a-b and that radius
   Vec3d a{0, 0, 0}, b{0, 0, 0};
   // mesh / vdb: file path (resolved relative to the deck's folder), transform
   std::string file;
@@ -150,6 +154,8 @@ struct KinematicConfig {
   Vec3d angular_velocity{0, 0, 0};  //!< rad/s (axis direction times rate)
   double start = 0;                 //!< s
   double end = 1e300;               //!< s; the region holds its last pose afterwards
+  //! [[curve]] scaling both rates: tau becomes the curve's integral over [start, clamp(t)].
+  Curve curve;
 };
 
 struct ForceConfig {
@@ -157,6 +163,7 @@ struct ForceConfig {
   Vec3d force{0, 0, 0};  //!< total force in newtons
   double start = 0;      //!< s
   double end = 1e300;    //!< s (exclusive)
+  Curve curve;           //!< time factor of `force` ([[curve]]); empty: 1
 };
 
 //! A static rigid obstacle the object cannot enter, with Coulomb friction on contact.
@@ -176,6 +183,7 @@ struct TractionConfig {
   double pressure = 0;      //!< Pa, along the inward reference normal (positive pushes in)
   double start = 0;         //!< s
   double end = 1e300;       //!< s (exclusive)
+  Curve curve;              //!< time factor of traction and pressure ([[curve]]); empty: 1
 };
 
 struct OutputConfig {
@@ -247,6 +255,12 @@ struct Config {
   std::vector<BoundaryConfig> boundaries;
   OutputConfig output;
   RenderConfig render;
+  std::vector<Curve> curves;  //!< [[curve]] tables, in deck order
+
+  //! Where each table and key of the deck was given, "FILE:LINE" or "--set KEY=VALUE", keyed
+  //! "table" and "table.key" (an array table: its first element holding the key); what
+  //! check_deck_use (core/DeckUse.hpp) points at.
+  std::map<std::string, std::string> where;
 
   std::string source;  //!< deck path ("<embedded>" for built-in text)
   std::string text;    //!< final deck text (TOML, overrides applied); stored in outputs

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "core/DeckReader.hpp"
+#include "core/DeckUse.hpp"
 #include "core/Error.hpp"
 
 namespace gen4d {
@@ -116,7 +117,7 @@ void read_domain(const Section& s, Config& c) {
 std::vector<std::string> geometry_keys(const std::string& type) {
   if (type == "box") return {"type", "name", "lo", "hi", "color"};
   if (type == "sphere") return {"type", "name", "center", "radius", "color"};
-  if (type == "capsule") return {"type", "name", "a", "b", "radius", "color"};
+  if (type == "capsule" || type == "cylinder") return {"type", "name", "a", "b", "radius", "color"};
   if (type == "mesh") return {"type", "name", "file", "scale", "translate", "color"};
   if (type == "splats")
     return {"type",      "name",        "file",           "scale",
@@ -181,7 +182,7 @@ void require_unit_colour(const Section& s, std::string_view key, const Vec3d& c)
 GeometryConfig read_geometry(Section& s, const fs::path& base_dir) {
   GeometryConfig g;
   s.string("type");  // presence and type first, then the value
-  g.type = s.choice("type", "", {"box", "sphere", "capsule", "mesh", "vdb", "splats"});
+  g.type = s.choice("type", "", {"box", "sphere", "capsule", "cylinder", "mesh", "vdb", "splats"});
   reject_foreign_geometry_keys(s, g.type);
   g.name = s.string("name", g.name);
   if (g.type == "box") {
@@ -192,11 +193,13 @@ GeometryConfig read_geometry(Section& s, const fs::path& base_dir) {
     g.center = s.vec3("center");
     g.radius = s.number("radius");
     require_positive(s, "radius", g.radius);
-  } else if (g.type == "capsule") {
+  } else if (g.type == "capsule" || g.type == "cylinder") {
     g.a = s.vec3("a");
     g.b = s.vec3("b");
     g.radius = s.number("radius");
     require_positive(s, "radius", g.radius);
+    if (g.type == "cylinder")
+      s.check(g.a != g.b, "b", fmt::format("must differ from a (the axis), got {}", g.b));
   } else {
     g.file = resolve_file(s, base_dir, g.type == "mesh");
     if (g.type == "vdb") g.grid = s.string("grid", g.grid);
@@ -287,6 +290,13 @@ void read_mpm_material(Section& s, MaterialConfig& m) {
     m.params[key] = s.number(key);
     m.param_where[key] = s.where(key);
   }
+  // At or above the melt temperature Johnson-Cook's yield stress is zero or negative.
+  const auto melt = m.params.find("melt_temperature");
+  if (melt != m.params.end() && s.has("initial_temperature"))
+    s.check(m.params["initial_temperature"] < melt->second, "initial_temperature",
+            fmt::format("must be below melt_temperature ({} K; the metal would start molten), "
+                        "got {}",
+                        melt->second, m.params["initial_temperature"]));
 }
 
 void read_material(Section& s, MaterialConfig& m, const fs::path& base_dir) {
@@ -541,6 +551,36 @@ BoundaryConfig read_boundary(const Section& s) {
   return b;
 }
 
+//! [[curve]]: a named piecewise-linear time factor (core/Curve.hpp).
+Curve read_curve(const Section& s, const std::vector<Curve>& earlier) {
+  s.reject_unknown(key_names("curve"));
+  const std::string name = s.string("name");
+  s.check(!name.empty(), "name", "must not be empty");
+  for (const Curve& k : earlier)
+    s.check(k.name() != name, "name", fmt::format("another [[curve]] is named '{}'", name));
+  std::vector<double> t = s.numbers("time"), f = s.numbers("factor");
+  s.check(f.size() == t.size(), "factor",
+          fmt::format("needs one value per time ({}), got {}", t.size(), f.size()));
+  for (std::size_t i = 1; i < t.size(); ++i)
+    s.check(t[i] > t[i - 1], "time",
+            fmt::format("must increase strictly, got {} after {}", t[i], t[i - 1]));
+  return Curve(name, std::move(t), std::move(f));
+}
+
+//! The [[curve]] a load names with `curve = NAME`; without the key the constant 1.
+Curve curve_of(const Section& s, const std::vector<Curve>& curves) {
+  if (!s.has("curve")) return {};
+  const std::string name = s.string("curve");
+  std::vector<std::string> names;
+  for (const Curve& k : curves) {
+    if (k.name() == name) return k;
+    names.push_back(k.name());
+  }
+  s.fail("curve", fmt::format("no [[curve]] is named '{}'{}", name,
+                              names.empty() ? " (the deck has no [[curve]] table)"
+                                            : deck::suggestion(name, names)));
+}
+
 FixedConfig read_fixed(const Section& s) {
   s.reject_unknown(key_names("fixed"));
   FixedConfig f;
@@ -550,7 +590,7 @@ FixedConfig read_fixed(const Section& s) {
   return f;
 }
 
-KinematicConfig read_kinematic(const Section& s) {
+KinematicConfig read_kinematic(const Section& s, const std::vector<Curve>& curves) {
   s.reject_unknown(key_names("kinematic"));
   KinematicConfig k;
   k.region.lo = s.vec3("lo");
@@ -563,10 +603,11 @@ KinematicConfig read_kinematic(const Section& s) {
   require_at_least(s, "start", k.start, 0);
   k.end = s.number("end", k.end);
   s.check(k.end > k.start, "end", fmt::format("must be > start ({}), got {}", k.start, k.end));
+  k.curve = curve_of(s, curves);
   return k;
 }
 
-ForceConfig read_force(const Section& s) {
+ForceConfig read_force(const Section& s, const std::vector<Curve>& curves) {
   s.reject_unknown(key_names("force"));
   ForceConfig f;
   f.region.lo = s.vec3("lo");
@@ -577,6 +618,7 @@ ForceConfig read_force(const Section& s) {
   require_at_least(s, "start", f.start, 0);
   f.end = s.number("end", f.end);
   s.check(f.end > f.start, "end", fmt::format("must be > start ({}), got {}", f.start, f.end));
+  f.curve = curve_of(s, curves);
   return f;
 }
 
@@ -605,7 +647,7 @@ ColliderConfig read_collider(const Section& s) {
   return c;
 }
 
-TractionConfig read_traction(const Section& s) {
+TractionConfig read_traction(const Section& s, const std::vector<Curve>& curves) {
   s.reject_unknown(key_names("traction"));
   TractionConfig t;
   t.region.lo = s.vec3("lo");
@@ -619,6 +661,7 @@ TractionConfig read_traction(const Section& s) {
   require_at_least(s, "start", t.start, 0);
   t.end = s.number("end", t.end);
   s.check(t.end > t.start, "end", fmt::format("must be > start ({}), got {}", t.start, t.end));
+  t.curve = curve_of(s, curves);
   return t;
 }
 
@@ -788,6 +831,47 @@ std::string write_deck_text(const toml::table& root) {
   return os.str();
 }
 
+//! Config::where: FILE:LINE (or the --set that gave it) of every table and key of the deck.
+void record_where(const toml::table& root, const Locator& loc, Config& c) {
+  // A table that only --set made has no line: point at the first override inside it.
+  const auto at = [&](const toml::node& node, const std::string& path) {
+    if (node.source().begin.line == 0)
+      for (const auto& [key, text] : loc.origins())
+        if (key.rfind(path + ".", 0) == 0) return "--set " + text;
+    return loc.at(&node, path);
+  };
+  const auto note = [&](const toml::table& t, const std::string& name, const std::string& path) {
+    c.where.emplace(name, at(t, path));
+    for (auto&& [key, value] : t) {
+      const std::string k(key.str());
+      c.where.emplace(name + "." + k, at(value, path + "." + k));
+    }
+  };
+  for (auto&& [key, value] : root) {
+    const std::string name(key.str());
+    if (const auto* t = value.as_table()) note(*t, name, name);
+    if (const auto* arr = value.as_array())
+      for (std::size_t i = 0; i < arr->size(); ++i)
+        if (const auto* t = arr->get_as<toml::table>(i))
+          note(*t, name, fmt::format("{}.{}", name, i));
+  }
+}
+
+//! A [[curve]] no load names is a mistake (the load it was meant for runs at full value).
+void reject_unreferenced_curves(const Config& c, const std::vector<Section>& sections) {
+  for (std::size_t i = 0; i < c.curves.size(); ++i) {
+    const std::string& name = c.curves[i].name();
+    bool used = false;
+    for (const auto& k : c.kinematic) used = used || k.curve.name() == name;
+    for (const auto& f : c.forces) used = used || f.curve.name() == name;
+    for (const auto& t : c.tractions) used = used || t.curve.name() == name;
+    sections[i].check(used, "name",
+                      fmt::format("no load names curve '{}' (give a [[force]], [[traction]] or "
+                                  "[[kinematic]] the key curve = \"{}\")",
+                                  name, name));
+  }
+}
+
 toml::table parse_toml(const std::string& text, const std::string& source_name) {
   try {
     return toml::parse(std::string_view(text), std::string_view(source_name));
@@ -811,28 +895,29 @@ Config parse_deck(const std::string& text, const std::string& source_name,
   read_geometries(root, loc, fs::path(base_dir.empty() ? "." : base_dir), c);
   read_solver(table_section(root, "solver", loc), c.solver);
   read_materials(root, loc, fs::path(base_dir.empty() ? "." : base_dir), c);
-  {
-    const Section mpm = table_section(root, "mpm", loc);
-    if (c.solver.method == "mpm")
-      read_mpm(mpm, c.mpm);
-    else if (mpm.present())
-      mpm.fail_table("[mpm] only applies to solver.method = \"mpm\"");
-  }
-  for (const Section& s : array_sections(root, "boundary", loc)) {
-    if (c.solver.method != "mpm")
-      s.fail_table(
-          "[[boundary]] only applies to solver.method = \"mpm\" (the voxel solver uses "
-          "[[fixed]], [[kinematic]], [[force]], [[collider]] and [[traction]])");
-    c.boundaries.push_back(read_boundary(s));
-  }
+  record_where(root, loc, c);
+  // Tables a solver does not read are refused by check_deck_use below, after all are valid.
+  const bool mpm = c.solver.method == "mpm";
+  if (mpm) read_mpm(table_section(root, "mpm", loc), c.mpm);
+  for (const Section& s : array_sections(root, "boundary", loc))
+    if (mpm) c.boundaries.push_back(read_boundary(s));
+  const std::vector<Section> curves = array_sections(root, "curve", loc);
+  for (const Section& s : curves) c.curves.push_back(read_curve(s, c.curves));
   for (const Section& s : array_sections(root, "fixed", loc)) c.fixed.push_back(read_fixed(s));
   for (const Section& s : array_sections(root, "kinematic", loc))
-    c.kinematic.push_back(read_kinematic(s));
-  for (const Section& s : array_sections(root, "force", loc)) c.forces.push_back(read_force(s));
-  for (const Section& s : array_sections(root, "collider", loc))
+    c.kinematic.push_back(read_kinematic(s, c.curves));
+  for (const Section& s : array_sections(root, "force", loc))
+    c.forces.push_back(read_force(s, c.curves));
+  for (const Section& s : array_sections(root, "collider", loc)) {
     c.colliders.push_back(read_collider(s));
+    // The MPM's box obstacle is a still cuboid: the grid nodes inside it stop (no slip).
+    if (mpm && c.colliders.back().type == "box")
+      s.check(!s.has("friction"), "friction",
+              "an MPM box collider holds what touches it (no slip); friction applies to plane "
+              "colliders");
+  }
   for (const Section& s : array_sections(root, "traction", loc))
-    c.tractions.push_back(read_traction(s));
+    c.tractions.push_back(read_traction(s, c.curves));
   const Section output = table_section(root, "output", loc);
   read_output(output, c.output);
   check_surface_source(output, c);
@@ -843,6 +928,8 @@ Config parse_deck(const std::string& text, const std::string& source_name,
 
   c.text = write_deck_text(root);
   c.source = source_name;
+  check_deck_use(c, run_user(c));
+  reject_unreferenced_curves(c, curves);
   return c;
 }
 

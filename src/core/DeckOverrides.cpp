@@ -92,6 +92,10 @@ toml::table typed_value(const std::string& value, Kind kind, const std::string& 
       if (node && node->is_array()) return *doc;
       throw InputError(fmt::format("{}: expected an array of 3 numbers like [0, 0, -9.81], got {}",
                                    where, node ? type_name(*node) : "'" + value + "'"));
+    case Kind::Numbers:
+      if (node && node->is_array()) return *doc;
+      throw InputError(fmt::format("{}: expected an array of numbers like [0, 0.1, 1], got {}",
+                                   where, node ? type_name(*node) : "'" + value + "'"));
   }
   return out;
 }

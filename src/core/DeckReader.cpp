@@ -136,14 +136,16 @@ const std::vector<TableSpec>& schema() {
         {"velocity", K::Vec3},
         {"angular_velocity", K::Vec3},
         {"start", K::Number},
-        {"end", K::Number}}},
+        {"end", K::Number},
+        {"curve", K::String}}},
       {"force",
        true,
        {{"lo", K::Vec3},
         {"hi", K::Vec3},
         {"force", K::Vec3},
         {"start", K::Number},
-        {"end", K::Number}}},
+        {"end", K::Number},
+        {"curve", K::String}}},
       {"collider",
        true,
        {{"type", K::String},
@@ -159,7 +161,9 @@ const std::vector<TableSpec>& schema() {
         {"traction", K::Vec3},
         {"pressure", K::Number},
         {"start", K::Number},
-        {"end", K::Number}}},
+        {"end", K::Number},
+        {"curve", K::String}}},
+      {"curve", true, {{"name", K::String}, {"time", K::Numbers}, {"factor", K::Numbers}}},
       {"output",
        false,
        {{"dir", K::String},
@@ -390,6 +394,22 @@ Vec3d Section::vec3(std::string_view key) const {
 
 Vec3d Section::vec3(std::string_view key, const Vec3d& fallback) const {
   return has(key) ? vec3(key) : fallback;
+}
+
+std::vector<double> Section::numbers(std::string_view key) const {
+  const toml::node& n = required(key);
+  const toml::array* arr = n.as_array();
+  if (!arr) fail(key, "expected an array of numbers, got " + type_name(n));
+  if (arr->empty()) fail(key, "expected an array of numbers, got an empty array");
+  std::vector<double> out;
+  for (std::size_t i = 0; i < arr->size(); ++i) {
+    const toml::node& e = (*arr)[i];
+    if (!e.is_integer() && !e.is_floating_point())
+      fail(key, fmt::format("element {} must be a number, got {}", i, type_name(e)));
+    out.push_back(*e.value<double>());
+    check(std::isfinite(out.back()), key, fmt::format("must be finite, got {}", format_vec(*arr)));
+  }
+  return out;
 }
 
 std::string Section::choice(std::string_view key, const std::string& fallback,

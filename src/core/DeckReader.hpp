@@ -13,7 +13,7 @@
 namespace gen4d::deck {
 
 //! What a key holds; decides how a --set value is parsed and how the key is read.
-enum class Kind { String, Number, Integer, Vec3 };
+enum class Kind { String, Number, Integer, Vec3, Numbers };
 
 struct KeySpec {
   std::string_view name;
@@ -48,6 +48,8 @@ class Locator {
   Locator(std::string source, std::map<std::string, std::string> override_origins)
       : source_(std::move(source)), origins_(std::move(override_origins)) {}
   const std::string& source() const { return source_; }
+  //! Every key path set by --set, with the override text that set it.
+  const std::map<std::string, std::string>& origins() const { return origins_; }
   std::string at(const toml::node* node, const std::string& path) const;
   [[noreturn]] void fail(const toml::node* node, const std::string& path,
                          const std::string& message) const;
@@ -80,6 +82,8 @@ class Section {
   std::string string(std::string_view key, const std::string& fallback) const;
   Vec3d vec3(std::string_view key) const;
   Vec3d vec3(std::string_view key, const Vec3d& fallback) const;
+  //! A non-empty array of finite numbers.
+  std::vector<double> numbers(std::string_view key) const;
   //! A string that must be one of `choices`.
   std::string choice(std::string_view key, const std::string& fallback,
                      const std::vector<std::string>& choices) const;

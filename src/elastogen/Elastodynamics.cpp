@@ -209,9 +209,24 @@ std::array<double, 3> Elastodynamics::traction_force(double t) {
   for (std::size_t r = 0; r < cfg_.tractions.size(); ++r) {
     const TractionConfig& tc = cfg_.tractions[r];
     if (t < tc.start || t >= tc.end) continue;
+    const double factor = tc.curve(t);
     for (const NodeLoad& l : traction_loads_[r])
-      for (int d = 0; d < 3; ++d) s[d].add(l.f[d]);
+      for (int d = 0; d < 3; ++d) s[d].add(factor * l.f[d]);
   }
+  std::array<double, 3> g{};
+  solver_.reducer().sum(s, g.data(), 3);
+  return g;
+}
+
+std::array<double, 3> Elastodynamics::external_force(double t) {
+  std::vector<double> f(fext_.size(), 0.0);
+  external_forces(t, f);
+  const auto& free = sys_.free_mask();
+  parallel::ExactSum s[3];
+  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+    if (!free[n]) return;
+    for (int d = 0; d < 3; ++d) s[d].add(f[3 * n + d]);
+  });
   std::array<double, 3> g{};
   solver_.reducer().sum(s, g.data(), 3);
   return g;
@@ -249,7 +264,10 @@ void Elastodynamics::resolve_contacts(StepStats& st) {
 
 std::array<double, 3> Elastodynamics::prescribed(const KinematicConfig& k, const Vec3d& X,
                                                  double t) {
-  const double tau = std::min(std::max(t, k.start), k.end) - k.start;
+  // A [[curve]] scales the rates: the motion's progress is the curve's integral.
+  const double tau = k.curve.empty()
+                         ? std::min(std::max(t, k.start), k.end) - k.start
+                         : k.curve.integral(k.start, std::min(std::max(t, k.start), k.end));
   const double w[3] = {k.angular_velocity[0], k.angular_velocity[1], k.angular_velocity[2]};
   const double wn = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
   double r[3] = {X[0] - k.center[0], X[1] - k.center[1], X[2] - k.center[2]};
@@ -295,14 +313,17 @@ void Elastodynamics::external_forces(double t, std::vector<double>& f) const {
       const ForceConfig& fc = cfg_.forces[r];
       if (t < fc.start || t >= fc.end || force_region_mass_[r] == 0.0) continue;
       if (!fc.region.contains({p[0], p[1], p[2]})) continue;
-      for (int d = 0; d < 3; ++d) f[3 * n + d] += fc.force[d] * m[n] / force_region_mass_[r];
+      const double factor = fc.curve(t);
+      for (int d = 0; d < 3; ++d)
+        f[3 * n + d] += factor * fc.force[d] * m[n] / force_region_mass_[r];
     }
   });
   for (std::size_t r = 0; r < cfg_.tractions.size(); ++r) {
     const TractionConfig& tc = cfg_.tractions[r];
     if (t < tc.start || t >= tc.end) continue;
+    const double factor = tc.curve(t);
     for (const NodeLoad& l : traction_loads_[r])
-      for (int d = 0; d < 3; ++d) f[3 * l.node + d] += l.f[d];
+      for (int d = 0; d < 3; ++d) f[3 * l.node + d] += factor * l.f[d];
   }
 }
 

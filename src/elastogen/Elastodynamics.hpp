@@ -56,6 +56,10 @@ class Elastodynamics {
   const GlobalSolver& global_solver() const { return solver_; }
   //! Total load of the [[traction]] tables active at time t on free nodes, all ranks.
   std::array<double, 3> traction_force(double t);
+  //! Total external force at time t over all ranks, [[force]] and [[traction]] loads (with
+  //! their curves) plus gravity on the free nodes, as a step starting at t applies it.
+  //! Collective.
+  std::array<double, 3> external_force(double t);
 
  private:
   void external_forces(double t, std::vector<double>& f) const;

@@ -77,6 +77,19 @@ class Capsule : public Shape {
   double radius_;
 };
 
+//! Flat-ended solid cylinder: points within `radius` of the axis a-b whose projection on the
+//! axis lies between a and b (a != b).
+class Cylinder : public Shape {
+ public:
+  Cylinder(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius);
+  bool inside(const Eigen::Vector3d& p) const override;
+  Aabb bounds() const override;
+
+ private:
+  Eigen::Vector3d a_, axis_;  //!< axis_ = b - a
+  double len2_, radius_;
+};
+
 //! Union of one or more shapes.
 class Union : public Shape {
  public:

@@ -64,6 +64,29 @@ Aabb Capsule::bounds() const {
   return {a_.cwiseMin(b_).array() - radius_, a_.cwiseMax(b_).array() + radius_};
 }
 
+Cylinder::Cylinder(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius)
+    : a_(a), axis_(b - a), len2_((b - a).squaredNorm()), radius_(radius) {
+  require_positive(radius, "cylinder radius");
+  if (!a.allFinite() || !b.allFinite()) throw InputError("cylinder ends must be finite");
+  if (!(len2_ > 0)) throw InputError("cylinder ends a and b must differ");
+}
+
+bool Cylinder::inside(const Eigen::Vector3d& p) const {
+  const Eigen::Vector3d r = p - a_;
+  const double s = r.dot(axis_);
+  if (s < 0 || s > len2_) return false;
+  return r.squaredNorm() - s * s / len2_ <= radius_ * radius_;
+}
+
+Aabb Cylinder::bounds() const {
+  // Each end disc reaches radius * sqrt(1 - n_d^2) along axis d, n the unit axis.
+  const Eigen::Vector3d n = axis_ / std::sqrt(len2_);
+  const Eigen::Vector3d reach =
+      radius_ * (Eigen::Vector3d::Ones() - n.cwiseProduct(n)).cwiseMax(0.0).cwiseSqrt();
+  const Eigen::Vector3d b = a_ + axis_;
+  return {a_.cwiseMin(b) - reach, a_.cwiseMax(b) + reach};
+}
+
 Union::Union(std::vector<std::unique_ptr<Shape>> parts) : parts_(std::move(parts)) {
   if (parts_.empty()) throw InputError("the object has no geometry parts");
   for (const auto& part : parts_) bounds_.extend(part->bounds());
@@ -110,6 +133,8 @@ std::unique_ptr<Shape> make_part(const GeometryConfig& g) {
   if (g.type == "box") return std::make_unique<Box>(to_eigen(g.lo), to_eigen(g.hi));
   if (g.type == "sphere") return std::make_unique<Sphere>(to_eigen(g.center), g.radius);
   if (g.type == "capsule") return std::make_unique<Capsule>(to_eigen(g.a), to_eigen(g.b), g.radius);
+  if (g.type == "cylinder")
+    return std::make_unique<Cylinder>(to_eigen(g.a), to_eigen(g.b), g.radius);
   if (g.type == "mesh" || g.type == "vdb") {
     if (g.file.empty()) throw InputError(fmt::format("{} part needs a file", g.type));
     require_positive(g.scale, "scale");
@@ -121,7 +146,7 @@ std::unique_ptr<Shape> make_part(const GeometryConfig& g) {
         "a splats part is not a solid shape: only the elastogen and mpm solvers take splat "
         "geometry");
   throw InputError(fmt::format(
-      "unknown geometry type '{}' (expected box, sphere, capsule, mesh or vdb)", g.type));
+      "unknown geometry type '{}' (expected box, sphere, capsule, cylinder, mesh or vdb)", g.type));
 }
 
 }  // namespace
