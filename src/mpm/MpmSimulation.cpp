@@ -19,6 +19,8 @@
 #include "gaussians/Render.hpp"
 #include "gaussians/Video.hpp"
 #include "mpm/Seeding.hpp"
+#include "parallel/Comm.hpp"
+#include "parallel/Reduce.hpp"
 
 namespace gen4d::mpm {
 namespace fs = std::filesystem;
@@ -46,6 +48,65 @@ void add_lattice_splats(Particles& p, const SplatLayout& layout, const Config& c
   }
 }
 
+}  // namespace
+
+std::vector<BoundaryConfig> boundary_conditions(const Config& cfg) {
+  std::vector<BoundaryConfig> out = cfg.boundaries;
+  for (const ColliderConfig& c : cfg.colliders) {
+    if (c.type == "plane") {
+      const double len = std::sqrt(c.normal[0] * c.normal[0] + c.normal[1] * c.normal[1] +
+                                   c.normal[2] * c.normal[2]);
+      out.push_back(surface_collider("separate", c.point,
+                                     {c.normal[0] / len, c.normal[1] / len, c.normal[2] / len},
+                                     c.friction));
+    } else {
+      BoundaryConfig b;
+      b.type = "cuboid";
+      b.region = c.box;
+      out.push_back(b);
+    }
+  }
+  return out;
+}
+
+WallCount particles_at_walls(MPI_Comm comm, const GridSpec& spec, int layers, const Particles& p) {
+  std::array<long long, 7> count{};  // per wall, then particles
+  if (layers > 0) {
+    // A particle's quadratic B-spline reaches the nodes floor(X - 0.5) .. floor(X - 0.5) + 2
+    // (X its position in cells); the walls are nodes [0, layers) and (cells - layers, cells].
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      bool any = false;
+      for (int d = 0; d < 3; ++d) {
+        const double X = (p.x[3 * i + d] - spec.lo[d]) / spec.dx;
+        const bool low = X < layers + 0.5;
+        const bool high = X >= static_cast<double>(spec.cells[d] - layers) - 0.5;
+        count[2 * d] += low;
+        count[2 * d + 1] += high;
+        any = any || low || high;
+      }
+      count[6] += any;
+    }
+  }
+  std::array<parallel::ExactSum, 7> local;
+  for (int w = 0; w < 7; ++w) local[w].add(static_cast<double>(count[w]));
+  std::array<double, 7> global{};
+  parallel::Reducer(comm).sum(local.data(), global.data(), 7);
+  WallCount out;
+  for (int w = 0; w < 6; ++w) out.per_wall[w] = static_cast<long long>(global[w]);
+  out.particles = static_cast<long long>(global[6]);
+  return out;
+}
+
+namespace {
+//! "z-: 120, x+: 3" for the walls holding particles.
+std::string describe_walls(const std::array<long long, 6>& count) {
+  std::string out;
+  for (int w = 0; w < 6; ++w)
+    if (count[w] > 0)
+      out += fmt::format("{}{}{}: {}", out.empty() ? "" : ", ", "xyz"[w / 2], w % 2 ? '+' : '-',
+                         count[w]);
+  return out;
+}
 }  // namespace
 
 GridSpec layout_grid(const Config& cfg, const geometry::Aabb& object) {
@@ -185,7 +246,7 @@ MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm
   opt.max_cells_per_substep = cfg_.mpm.max_cells_per_substep;
   opt.rpic_damping = cfg_.mpm.rpic_damping;
   opt.grid_velocity_scale = cfg_.mpm.grid_velocity_scale;
-  solver_ = std::make_unique<Solver>(comm_, spec_, materials, opt, cfg_.boundaries);
+  solver_ = std::make_unique<Solver>(comm_, spec_, materials, opt, boundary_conditions(cfg_));
   const double limit = spec_.dx / std::max(materials.wave_speed(), 1e-300);
   if (rank_ == 0 && !opt.adaptive && cfg_.dt > limit)
     log::warn(
@@ -197,8 +258,7 @@ MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm
   Particles p;
   if (shape) p = seed_particles(comm_, spec_, *shape, ppa, materials[0], cfg_.mpm.velocity);
   if (carries_splats_) add_lattice_splats(p, layout_, cfg_, solid_parts, spec_.dx / ppa);
-  long long n = static_cast<long long>(p.size());
-  MPI_Allreduce(MPI_IN_PLACE, &n, 1, MPI_LONG_LONG, MPI_SUM, comm_);
+  long long n = parallel::sum_of(comm_, static_cast<long long>(p.size()));
   const long long lattice_count = n;
   if (splats.size() > 0) {
     // Ids after the lattice particles', in the deck's splat order.
@@ -213,9 +273,8 @@ MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm
   total_ = n;
   assign_material_slots(cfg_, materials, lattice_count, splat_part, p);
   solver_->distribute(std::move(p));
-  long long local = static_cast<long long>(solver_->particles().size()), most = 0, least = 0;
-  MPI_Allreduce(&local, &most, 1, MPI_LONG_LONG, MPI_MAX, comm_);
-  MPI_Allreduce(&local, &least, 1, MPI_LONG_LONG, MPI_MIN, comm_);
+  const long long local = static_cast<long long>(solver_->particles().size());
+  const long long most = parallel::max_of(comm_, local), least = parallel::min_of(comm_, local);
   if (size_ > 1)
     log::info("mpm: static balance over {} ranks: {} to {} particles per rank (max / mean {:.3f})",
               size_, least, most, static_cast<double>(most) * size_ / static_cast<double>(n));
@@ -308,6 +367,7 @@ void MpmSimulation::write_frame(ParticleFrameWriter& writer, const std::string& 
   if (materials.size() > 1) fields.push_back({"material", slot.data()});
   writer.write_frame(time_, static_cast<int>(step_), p, fields);
   const int index = static_cast<int>(writer.frames().back().index);
+  check_walls();
   if (cfg_.output.particles == "ply")
     write_particle_ply(
         comm_,
@@ -334,6 +394,23 @@ void MpmSimulation::write_frame(ParticleFrameWriter& writer, const std::string& 
   }
   io_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (renderer_) render_frame(index);
+}
+
+void MpmSimulation::check_walls() {
+  // The walls act unless a bounding_box entry (the last one) is inactive now.
+  bool walls = true;
+  for (const BoundaryConfig& b : cfg_.boundaries)
+    if (b.type == "bounding_box") walls = time_ >= b.start && time_ < b.end;
+  const WallCount count =
+      particles_at_walls(comm_, spec_, walls ? cfg_.mpm.boundary_layers : 0, solver_->particles());
+  at_walls_ = count.particles;
+  if (at_walls_ == 0 || walls_warned_) return;
+  walls_warned_ = true;
+  log::info(
+      "warning: t = {:.6g} s: {} particle(s) touch the grid walls (mpm.boundary_layers = {}; "
+      "{}), which stop their motion out of the grid; enlarge [mpm] lo/hi or domain.padding "
+      "if the walls are not meant to be part of the scene",
+      time_, at_walls_, cfg_.mpm.boundary_layers, describe_walls(count.per_wall));
 }
 
 void MpmSimulation::render_frame(int index) {
@@ -447,10 +524,10 @@ MpmRunResult MpmSimulation::run(const std::string& out_dir, bool append) {
       const double rate = (time_ - t_start) / std::max(wall, 1e-9);
       log::info(
           "substep {:>7}  t = {:.5g} s ({:.1f} %)  dt {:.3g} s  {:.1f} substeps/s  ETA {}"
-          "  removed {}  clamped {}",
+          "  removed {}  clamped {}  at walls {}",
           step_, time_, 100 * time_ / end, dt, static_cast<double>(substeps) / std::max(wall, 1e-9),
           ProgressLog::format_duration((end - time_) / std::max(rate, 1e-300)), solver_->removed(),
-          solver_->clamped());
+          solver_->clamped(), at_walls_);
     }
   }
   if (res.exit_code == 0) res.last_checkpoint = write_checkpoint(out_dir);
@@ -466,6 +543,8 @@ MpmRunResult MpmSimulation::run(const std::string& out_dir, bool append) {
   if (solver_->removed() || solver_->clamped())
     log::info("particles that left the grid: {} removed, {} clamped back in", solver_->removed(),
               solver_->clamped());
+  if (at_walls_ > 0)
+    log::info("particles touching the grid walls at the last frame: {}", at_walls_);
   return res;
 }
 
@@ -479,12 +558,10 @@ void MpmSimulation::report_timers(double wall, long substeps) const {
             n / std::max(wall, 1e-9));
   const auto& timers = solver_->timers();
   for (const char* p : phases) {
-    double local = timers.total(p), global = 0;
-    MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_MAX, comm_);
+    const double global = parallel::max_of(comm_, timers.total(p));
     log::info("  {:<10} {:9.3f} s  {:5.1f} %", p, global, 100.0 * global / std::max(wall, 1e-9));
   }
-  double io = io_seconds_, gio = 0;
-  MPI_Allreduce(&io, &gio, 1, MPI_DOUBLE, MPI_MAX, comm_);
+  const double gio = parallel::max_of(comm_, io_seconds_);
   log::info("  {:<10} {:9.3f} s  {:5.1f} %", "io", gio, 100.0 * gio / std::max(wall, 1e-9));
 }
 

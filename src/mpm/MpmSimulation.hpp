@@ -11,8 +11,6 @@
 //! = "ply" also writes the deformed splats as 3DGS PLYs, OUT/splats/splats_NNNNNN.ply.
 #pragma once
 
-#include <mpi.h>
-
 #include <memory>
 #include <string>
 
@@ -23,6 +21,7 @@
 #include "mpm/ParticleIO.hpp"
 #include "mpm/Solver.hpp"
 #include "mpm/SplatParticles.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::mpm {
 
@@ -47,6 +46,19 @@ MaterialSet make_deck_materials(const Config& cfg);
 void assign_material_slots(const Config& cfg, const MaterialSet& materials,
                            std::int64_t lattice_count, const std::vector<int>& splat_part,
                            Particles& p);
+
+//! The MPM grid conditions of a deck: its [[boundary]] entries, then its [[collider]]
+//! obstacles: a plane as a surface_collider that lets material leave ("separate") with the
+//! collider's Coulomb friction, a box as a still cuboid (the grid nodes inside stop).
+std::vector<BoundaryConfig> boundary_conditions(const Config& cfg);
+//! Particles whose B-spline footprint reaches the wall nodes (`layers` node layers at each
+//! grid face), over all ranks.
+struct WallCount {
+  std::array<long long, 6> per_wall{};  //!< x-, x+, y-, y+, z-, z+ (an edge counts twice)
+  long long particles = 0;              //!< particles at one wall or more
+};
+//! Counts this rank's particles `p` at the walls, summed over `comm`. Collective.
+WallCount particles_at_walls(MPI_Comm comm, const GridSpec& spec, int layers, const Particles& p);
 
 class MpmSimulation {
  public:
@@ -81,6 +93,9 @@ class MpmSimulation {
   //! The [render] image of frame `index` (collective; rank 0 writes it).
   void render_frame(int index);
   void take_snapshot();
+  //! Counts the particles at the grid walls (particles_at_walls; collective) and warns the
+  //! first time there are any.
+  void check_walls();
   void report_timers(double wall, long substeps) const;
 
   MPI_Comm comm_;
@@ -95,6 +110,8 @@ class MpmSimulation {
   double next_frame_time_ = 0;
   Snapshot snapshot_;
   double io_seconds_ = 0;
+  long long at_walls_ = 0;  //!< particles at the grid walls at the last frame
+  bool walls_warned_ = false;
   bool carries_splats_ = false;
   SplatLayout layout_;
   CovarianceUpdate covariance_update_ = CovarianceUpdate::DeformationGradient;

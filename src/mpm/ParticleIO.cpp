@@ -24,6 +24,7 @@
 #include "io/FrameLayout.hpp"
 #include "io/PngPreview.hpp"
 #include "io/Xdmf.hpp"
+#include "parallel/Comm.hpp"
 #include "parallel/Distribute.hpp"
 
 namespace gen4d::mpm {
@@ -35,31 +36,11 @@ namespace {
 //! Ids are carried as doubles in the exchanged rows: exact below 2^53.
 constexpr std::int64_t kMaxParticles = std::int64_t(1) << 53;
 
-int comm_rank(MPI_Comm comm) {
-  int rank = 0;
-  MPI_Comm_rank(comm, &rank);
-  return rank;
-}
-
-int comm_size(MPI_Comm comm) {
-  int size = 1;
-  MPI_Comm_size(comm, &size);
-  return size;
-}
-
 //! Throws E on every rank with the first failing rank's message ("" everywhere: no throw).
 template <class E>
 void throw_if_any(MPI_Comm comm, const std::string& local_error) {
   const std::string error = h5::first_error(comm, local_error);
   if (!error.empty()) throw E(error);
-}
-
-std::string broadcast_string(MPI_Comm comm, std::string text, int root) {
-  unsigned long length = text.size();
-  MPI_Bcast(&length, 1, MPI_UNSIGNED_LONG, root, comm);
-  text.resize(length);
-  MPI_Bcast(text.data(), static_cast<int>(length), MPI_CHAR, root, comm);
-  return text;
 }
 
 //! Why the arrays of `p` disagree in length; "" when they are consistent.
@@ -103,7 +84,7 @@ struct DenseBlock {
 //! 0..total-1 or held twice are RuntimeErrors on every rank.
 DenseBlock to_blocks(MPI_Comm comm, std::int64_t total, int width, const std::vector<double>& rows,
                      const std::string& where) {
-  const int rank = comm_rank(comm), size = comm_size(comm);
+  const int rank = parallel::rank(comm), size = parallel::size(comm);
   const std::size_t n = rows.size() / width;
   std::vector<int> owner(n, 0);
   std::string error;
@@ -614,7 +595,7 @@ std::string write_particle_checkpoint(MPI_Comm comm, const std::string& dir,
 ParticleCheckpointMeta read_particle_checkpoint_meta(MPI_Comm comm, const std::string& path) {
   h5::silence_errors();
   std::string packed, error;
-  if (comm_rank(comm) == 0) {
+  if (parallel::rank(comm) == 0) {
     try {
       packed = pack(read_meta_serial(path));
     } catch (const std::exception& e) {
@@ -622,7 +603,7 @@ ParticleCheckpointMeta read_particle_checkpoint_meta(MPI_Comm comm, const std::s
     }
   }
   throw_if_any<InputError>(comm, error);
-  return unpack(broadcast_string(comm, packed, 0));
+  return unpack(parallel::broadcast(comm, packed, 0));
 }
 
 ParticleCheckpointMeta read_particle_checkpoint(MPI_Comm comm, const std::string& path,
@@ -641,7 +622,8 @@ ParticleCheckpointMeta read_particle_checkpoint(MPI_Comm comm, const std::string
   throw_if_any<InputError>(comm, error);
   Particles read;
   try {
-    const IdBlock block = id_block(meta.total_particles, comm_rank(comm), comm_size(comm));
+    const IdBlock block =
+        id_block(meta.total_particles, parallel::rank(comm), parallel::size(comm));
     read = read_block(file.get(), path, meta.total_particles, block,
                       static_cast<int>(meta.extra_names.size()));
   } catch (const std::exception& e) {
@@ -754,7 +736,7 @@ void ParticleFrameWriter::write_frame(double time, int step, const Particles& pa
   file_.raise_if_any(error.empty() ? "" : where + error);
   std::string joined;
   for (const std::string& name : names) joined += name + "\n";
-  if (broadcast_string(file_.comm(), joined, 0) != joined) {
+  if (parallel::broadcast(file_.comm(), joined, 0) != joined) {
     error = where + "the scalar fields differ between ranks";
   }
   file_.raise_if_any(error);
@@ -832,7 +814,7 @@ void write_particle_ply(MPI_Comm comm, const std::string& path, const Particles&
     std::copy_n(&particles.v[3 * i], 3, &rows[i * W + 4]);
   }
   const std::vector<double> all = gather_rows(comm, W, rows, path + ": ");
-  if (comm_rank(comm) == 0) {
+  if (parallel::rank(comm) == 0) {
     const std::size_t n = all.size() / W;
     std::string bytes = fmt::format(
         "ply\nformat binary_little_endian 1.0\ncomment gen4d MPM particles in id order\n"
@@ -875,7 +857,7 @@ void write_particle_vdb(MPI_Comm comm, const std::string& path, const Particles&
   }
   // Sorted by id, so the file does not depend on how the particles were distributed.
   const std::vector<double> all = gather_rows(comm, W, rows, path + ": ");
-  if (comm_rank(comm) == 0) {
+  if (parallel::rank(comm) == 0) {
     try {
       error = write_vdb_serial(path, all, W, voxel_size);
     } catch (const std::exception& e) {
@@ -940,10 +922,10 @@ void write_particle_png(MPI_Comm comm, const std::string& path, const Particles&
       }
     }
   }
-  const int rank = comm_rank(comm);
+  const int rank = parallel::rank(comm);
   std::vector<float> merged(rank == 0 ? near.size() : 0);
-  MPI_Reduce(near.data(), rank == 0 ? merged.data() : nullptr, static_cast<int>(near.size()),
-             MPI_FLOAT, MPI_MAX, 0, comm);
+  parallel::max_to_root(comm, near.data(), rank == 0 ? merged.data() : nullptr,
+                        static_cast<int>(near.size()));
   if (rank == 0) {
     std::vector<std::uint8_t> rgb(3 * merged.size());
     const double background[3] = {0.11, 0.12, 0.14}, base[3] = {0.98, 0.66, 0.32};

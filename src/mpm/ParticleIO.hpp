@@ -10,8 +10,6 @@
 // Every function here is collective on `comm`; a rank holding no particles still calls it.
 #pragma once
 
-#include <mpi.h>
-
 #include <array>
 #include <cstdint>
 #include <map>
@@ -22,6 +20,7 @@
 #include "io/FramesFile.hpp"
 #include "io/Hdf5.hpp"
 #include "mpm/Particles.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::mpm {
 

@@ -6,6 +6,7 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "parallel/Comm.hpp"
 #include "parallel/Distribute.hpp"
 
 namespace gen4d::mpm {
@@ -153,9 +154,7 @@ void Particles::sort_by_id() {
 }
 
 std::size_t redistribute(MPI_Comm comm, Particles& p, const std::vector<int>& dest) {
-  int size = 1;
-  MPI_Comm_size(comm, &size);
-  if (size == 1) return 0;
+  if (parallel::size(comm) == 1) return 0;
   parallel::RowExchange ex;
   ex.fill_gaps_from_end();
   ex.add(p.id, 1).add(p.x, 3).add(p.v, 3).add(p.C, 9).add(p.F, 9).add(p.state, kStateSize);

@@ -2,8 +2,6 @@
 //! decomposition, and the all-to-all redistribution used by migration and by ordered output.
 #pragma once
 
-#include <mpi.h>
-
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -12,6 +10,7 @@
 
 #include "mpm/Kernels.hpp"
 #include "mpm/Material.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::mpm {
 

@@ -7,14 +7,13 @@
 #include <unordered_map>
 
 #include "mpm/SplatParticles.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::mpm {
 
 Particles seed_particles(MPI_Comm comm, const GridSpec& grid, const geometry::Shape& shape, int ppa,
                          const Material& material, const Vec3d& velocity) {
-  int rank = 0, size = 1;
-  MPI_Comm_rank(comm, &rank);
-  MPI_Comm_size(comm, &size);
+  const int rank = parallel::rank(comm), size = parallel::size(comm);
   const geometry::Aabb b = shape.bounds();
   long lo[3], hi[3];
   for (int a = 0; a < 3; ++a) {
@@ -43,9 +42,7 @@ Particles seed_particles(MPI_Comm comm, const GridSpec& grid, const geometry::Sh
               if (!shape.inside(Eigen::Vector3d(pos[0], pos[1], pos[2]))) continue;
               p.push_back(count++, pos, velocity.data(), mass, vol, init);
             }
-  std::int64_t offset = 0;
-  MPI_Exscan(&count, &offset, 1, MPI_INT64_T, MPI_SUM, comm);
-  if (rank == 0) offset = 0;
+  const std::int64_t offset = parallel::exclusive_prefix_sum(comm, count);
   for (auto& id : p.id) id += offset;
   return p;
 }
@@ -53,9 +50,7 @@ Particles seed_particles(MPI_Comm comm, const GridSpec& grid, const geometry::Sh
 Particles seed_splats(MPI_Comm comm, const GridSpec& grid, const gaussians::SplatSet& splats,
                       const Material& material, const Vec3d& velocity, std::int64_t first_id,
                       int sh_degree, const std::string& where) {
-  int rank = 0, size = 1;
-  MPI_Comm_rank(comm, &rank);
-  MPI_Comm_size(comm, &size);
+  const int rank = parallel::rank(comm), size = parallel::size(comm);
   splats.check_sizes();
   const std::size_t n = splats.size();
   // Splats per grid cell, over the whole set (every rank holds it).

@@ -3,8 +3,6 @@
 //! fastest, then the lattice point), the same at any rank count.
 #pragma once
 
-#include <mpi.h>
-
 #include <cstdint>
 
 #include "gaussians/Splats.hpp"
@@ -12,6 +10,7 @@
 #include "mpm/Material.hpp"
 #include "mpm/Particles.hpp"
 #include "mpm/Solver.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::mpm {
 

@@ -10,6 +10,7 @@
 #include "core/ParallelFor.hpp"
 #include "mpm/HostKernels.hpp"
 #include "mpm/Kernels.hpp"
+#include "parallel/Comm.hpp"
 #include "parallel/Reduce.hpp"
 
 namespace gen4d::mpm {
@@ -41,8 +42,8 @@ Solver::Solver(MPI_Comm comm, const GridSpec& grid, MaterialSet materials,
       materials_(std::move(materials)),
       opt_(options),
       bcs_(std::move(boundaries)) {
-  MPI_Comm_rank(comm_, &rank_);
-  MPI_Comm_size(comm_, &size_);
+  rank_ = parallel::rank(comm_);
+  size_ = parallel::size(comm_);
   for (int a = 0; a < 3; ++a)
     if (spec_.cells[a] < 2 * opt_.boundary_layers + 3)
       throw InputError(
@@ -84,8 +85,7 @@ void Solver::distribute(Particles local) {
       const long n = std::clamp(static_cast<long>(std::floor(X + 0.5)), 0L, nodes[a] - 1);
       ++hist[static_cast<std::size_t>(n)];
     }
-    MPI_Allreduce(MPI_IN_PLACE, hist.data(), static_cast<int>(hist.size()), MPI_LONG_LONG, MPI_SUM,
-                  comm_);
+    parallel::sum_in_place(comm_, hist.data(), static_cast<int>(hist.size()));
     long long total = 0;
     for (auto h : hist) total += h;
     const int m = procs[a];
@@ -131,8 +131,8 @@ void Solver::distribute(Particles local) {
       lo = std::min(lo, s);
       hi = std::max(hi, s);
     }
-    MPI_Allreduce(MPI_IN_PLACE, &lo, 1, MPI_DOUBLE, MPI_MIN, comm_);
-    MPI_Allreduce(MPI_IN_PLACE, &hi, 1, MPI_DOUBLE, MPI_MAX, comm_);
+    lo = parallel::min_of(comm_, lo);
+    hi = parallel::max_of(comm_, hi);
     release_range_[b] = {lo, hi};
   }
   for (std::size_t i = 0; i < p_.size(); ++i)
@@ -164,7 +164,7 @@ double Solver::stable_dt(double limit) const {
       exec::parallel_reduce_max(static_cast<long>(p_.size()), 0.0,
                                 [&](long i) { return dot3(&vel[3 * i], &vel[3 * i]); }),
       materials_.state_wave_speed(p_.size(), p_.material.data(), p_.state.data())};
-  MPI_Allreduce(MPI_IN_PLACE, most, 2, MPI_DOUBLE, MPI_MAX, comm_);
+  parallel::max_in_place(comm_, most, 2);
   const double vmax = std::sqrt(most[0]), c = most[1];
   if (vmax > 0) dt = std::min(dt, opt_.cfl * spec_.dx / vmax);
   if (c > 0) dt = std::min(dt, opt_.wave_cfl * spec_.dx / c);
@@ -241,7 +241,7 @@ void Solver::p2g(double dt) {
     for (std::size_t k = 0; k < block.size(); k += 2)
       for (int c = 0; c < 2; ++c) bound[c] = kernels::max_of(bound[c], block[k + c]);
   }
-  MPI_Allreduce(MPI_IN_PLACE, bound, 2, MPI_DOUBLE, MPI_MAX, comm_);
+  parallel::max_in_place(comm_, bound, 2);
   a.inv_qm = inverse_quantum(bound[0]);
   a.inv_qp = inverse_quantum(bound[1]);
   quantum_mass_ = 1.0 / a.inv_qm;
@@ -493,7 +493,7 @@ void Solver::check_and_confine(double t, double dt) {
     clamped += status[i] == kernels::kClamped;
   }
   long long counts[3] = {bad, removed, clamped};
-  MPI_Allreduce(MPI_IN_PLACE, counts, 3, MPI_LONG_LONG, MPI_SUM, comm_);
+  parallel::sum_in_place(comm_, counts, 3);
   if (counts[0] > 0) {
     // Up to 3 unstable particles per rank (id, x, y, z, speed); every rank learns them all, so
     // every rank throws the same message.
@@ -507,8 +507,7 @@ void Solver::check_and_confine(double t, double dt) {
     report.resize(15, std::numeric_limits<double>::quiet_NaN());
     if (bad < 3)
       for (long long k = bad; k < 3; ++k) report[5 * k] = -1;
-    std::vector<double> all(15 * static_cast<std::size_t>(size_));
-    MPI_Allgather(report.data(), 15, MPI_DOUBLE, all.data(), 15, MPI_DOUBLE, comm_);
+    const std::vector<double> all = parallel::all_gather(comm_, report);
     std::string where;
     int shown = 0;
     for (std::size_t k = 0; k < all.size() / 5 && shown < 5; ++k) {
@@ -540,14 +539,11 @@ void Solver::migrate() {
   exec::parallel_for(static_cast<long>(p_.size()),
                      [&](long i) { dest[i] = owner_of(&p_.x[3 * i]); });
   long long total = static_cast<long long>(redistribute(comm_, p_, dest_));
-  MPI_Allreduce(MPI_IN_PLACE, &total, 1, MPI_LONG_LONG, MPI_SUM, comm_);
-  migrated_total_ += total;
+  migrated_total_ += parallel::sum_of(comm_, total);
 }
 
 long long Solver::count() const {
-  long long n = static_cast<long long>(p_.size());
-  MPI_Allreduce(MPI_IN_PLACE, &n, 1, MPI_LONG_LONG, MPI_SUM, comm_);
-  return n;
+  return parallel::sum_of(comm_, static_cast<long long>(p_.size()));
 }
 
 double Solver::total_mass() const {

@@ -14,8 +14,6 @@
 // and of how particles are split across ranks. Everything else is per particle or per node.
 #pragma once
 
-#include <mpi.h>
-
 #include <algorithm>
 #include <array>
 #include <cstdint>
@@ -32,6 +30,7 @@
 #include "mpm/Material.hpp"
 #include "mpm/MaterialSet.hpp"
 #include "mpm/Particles.hpp"
+#include "parallel/Comm.hpp"
 #include "parallel/Grid.hpp"
 #include "parallel/Halo.hpp"
 

@@ -10,6 +10,7 @@
 
 #include "core/Error.hpp"
 #include "gaussians/DeckSplats.hpp"
+#include "parallel/Comm.hpp"
 #include "parallel/Distribute.hpp"
 
 namespace gen4d::mpm {
@@ -177,8 +178,7 @@ gaussians::SplatSet gather_deformed_splats(MPI_Comm comm, const Particles& p,
                                            const SplatLayout& layout,
                                            const gaussians::KinematicsOptions& options,
                                            CovarianceUpdate mode) {
-  int rank = 0;
-  MPI_Comm_rank(comm, &rank);
+  const int rank = parallel::rank(comm);
   std::vector<std::int64_t> id = p.id;
   std::vector<double> x = p.x, extra = p.extra;
   const int W = layout.width();

@@ -3,8 +3,6 @@
 //! and harmonics in Particles::extra, so they migrate, checkpoint and restart with it.
 #pragma once
 
-#include <mpi.h>
-
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -12,6 +10,7 @@
 #include "gaussians/Kinematics.hpp"
 #include "gaussians/Splats.hpp"
 #include "mpm/Particles.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::mpm {
 
