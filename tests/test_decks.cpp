@@ -241,8 +241,12 @@ TEST(DeckCurves, BadCurvesAreRefusedByKey) {
       "[[curve]]\nname = \"ramp\"\ntime = [0]\nfactor = [1]\n"
       "[[curve]]\nname = \"spare\"\ntime = [0]\nfactor = [2]\n");
   EXPECT_NE(e.find("key 'curve.1.name': no load names curve 'spare'"), std::string::npos) << e;
+  // Under the MPM a curve is for [[boundary]] conditions; one that none names is refused.
   e = error_of(kMpm + "[[curve]]\nname = \"ramp\"\ntime = [0]\nfactor = [1]\n");
-  EXPECT_NE(e.find("[[curve]] does not apply to solver.method = \"mpm\""), std::string::npos) << e;
+  EXPECT_NE(e.find("no load names curve 'ramp'"), std::string::npos) << e;
+  e = error_of(kMpm + "[[boundary]]\ntype = \"surface_collider\"\npoint = [0, 0, 0]\n"
+                      "normal = [0, 0, 1]\ncurve = \"ramp\"\n");
+  EXPECT_NE(e.find("curve"), std::string::npos) << e;  // colliders take no curve
 }
 
 TEST(DeckPhysics, ImpossibleMaterialsAreRefusedByKey) {

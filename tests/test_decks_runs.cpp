@@ -196,5 +196,42 @@ TEST(DeckRuns, MpmCollidersStopTheFallAndWallsHoldWhatPassesThrough) {
   }
 }
 
+// [[curve]] on MPM boundary conditions: a particle translation ramped 0 -> 1 over 0.1 s sets
+// the held particles' velocity to velocity * ramp(t) each substep; a moving cuboid travels
+// velocity times the curve's integral.
+TEST(DeckRuns, CurvesScaleMpmBoundaryConditions) {
+  const std::string ramp =
+      "[[curve]]\nname = \"ramp\"\ntime = [0, 0.1]\nfactor = [0, 1]\n"
+      "[[boundary]]\ntype = \"enforce_particle_translation\"\nlo = [-1, -1, -1]\n"
+      "hi = [1, 1, 1]\nvelocity = [0, 0, 1.5]\ncurve = \"ramp\"\n";
+  const Config cfg = parse_deck(falling_cube(ramp), "cube.toml", ".");
+  ASSERT_EQ(cfg.boundaries.size(), 1u);
+  EXPECT_EQ(cfg.boundaries[0].curve.name(), "ramp");
+  mpm::MpmSimulation sim(MPI_COMM_WORLD, cfg);
+  auto& s = sim.solver();
+  int checked = 0;
+  for (double t = 0; t < 0.12;) {
+    const double dt = s.stable_dt(cfg.dt);
+    s.substep(t, dt);
+    const double expected = 1.5 * std::min(1.0, t / 0.1);  // the factor at the substep's start
+    for (std::size_t i = 0; i < s.particles().size(); ++i, ++checked)
+      ASSERT_NEAR(s.particles().v[3 * i + 2], expected, 1e-12) << "t = " << t;
+    t += dt;
+  }
+  EXPECT_GT(checked, 0);
+
+  BoundaryConfig box;
+  box.type = "cuboid";
+  box.motion = "moving";
+  box.velocity = {2, 0, 0};
+  box.start = 0.05;
+  box.end = 1;
+  box.curve = cfg.boundaries[0].curve;
+  // Over [0.05, 0.15] the ramp's integral is 0.5 * (0.1^2 - 0.05^2) / 0.1 + 0.05 = 0.0875.
+  EXPECT_NEAR(mpm::cuboid_region(box, 0.15).lo[0] - box.region.lo[0], 2 * 0.0875, 1e-15);
+  box.curve = Curve();  // no curve: velocity times the elapsed time, as before
+  EXPECT_EQ(mpm::cuboid_region(box, 0.15).lo[0] - box.region.lo[0], 2 * (0.15 - 0.05));
+}
+
 }  // namespace
 }  // namespace gen4d::test

@@ -139,6 +139,9 @@ struct BoundaryConfig {
   int layers = 1;  //!< release_particles_sequentially
   double start = 0;
   double end = 1e300;
+  //! Time factor ([[curve]]) of a cuboid's or a particle condition's velocity, force and
+  //! angular velocity; a moving cuboid travels velocity times the curve's integral. Empty: 1.
+  Curve curve;
 };
 
 struct FixedConfig {

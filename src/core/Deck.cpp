@@ -467,13 +467,13 @@ void read_mpm(const Section& s, MpmConfig& m) {
 std::vector<std::string> boundary_keys(const std::string& type) {
   if (type == "bounding_box") return {"type", "start", "end"};
   if (type == "cuboid")
-    return {"type", "lo", "hi", "velocity", "motion", "reset_duration", "start", "end"};
-  if (type == "particle_impulse") return {"type", "lo", "hi", "force", "start", "end"};
+    return {"type", "lo", "hi", "velocity", "motion", "reset_duration", "start", "end", "curve"};
+  if (type == "particle_impulse") return {"type", "lo", "hi", "force", "start", "end", "curve"};
   if (type == "enforce_particle_translation")
-    return {"type", "lo", "hi", "velocity", "start", "end"};
+    return {"type", "lo", "hi", "velocity", "start", "end", "curve"};
   if (type == "enforce_particle_velocity_rotation")
     return {"type",  "point", "normal", "radius", "half_height", "velocity", "angular_velocity",
-            "start", "end"};
+            "start", "end",   "curve"};
   if (type == "surface_collider")
     return {"type", "point", "normal",    "surface", "friction",
             "lo",   "hi",    "cut_scale", "start",   "end"};
@@ -486,7 +486,9 @@ Vec3d unit_normal(const Section& s, const Vec3d& n) {
   return {n[0] / len, n[1] / len, n[2] / len};
 }
 
-BoundaryConfig read_boundary(const Section& s) {
+Curve curve_of(const Section& s, const std::vector<Curve>& curves);
+
+BoundaryConfig read_boundary(const Section& s, const std::vector<Curve>& curves) {
   s.reject_unknown(key_names("boundary"));
   BoundaryConfig b;
   b.type = s.choice(
@@ -494,6 +496,7 @@ BoundaryConfig read_boundary(const Section& s) {
       {"bounding_box", "cuboid", "particle_impulse", "enforce_particle_translation",
        "enforce_particle_velocity_rotation", "surface_collider", "release_particles_sequentially"});
   reject_foreign_keys(s, "boundary", b.type, boundary_keys(b.type));
+  b.curve = curve_of(s, curves);
   b.start = s.number("start", b.start);
   require_at_least(s, "start", b.start, 0);
   b.end = s.number("end", b.end);
@@ -865,9 +868,10 @@ void reject_unreferenced_curves(const Config& c, const std::vector<Section>& sec
     for (const auto& k : c.kinematic) used = used || k.curve.name() == name;
     for (const auto& f : c.forces) used = used || f.curve.name() == name;
     for (const auto& t : c.tractions) used = used || t.curve.name() == name;
+    for (const auto& b : c.boundaries) used = used || b.curve.name() == name;
     sections[i].check(used, "name",
-                      fmt::format("no load names curve '{}' (give a [[force]], [[traction]] or "
-                                  "[[kinematic]] the key curve = \"{}\")",
+                      fmt::format("no load names curve '{}' (give a [[force]], [[traction]], "
+                                  "[[kinematic]] or [[boundary]] the key curve = \"{}\")",
                                   name, name));
   }
 }
@@ -899,10 +903,10 @@ Config parse_deck(const std::string& text, const std::string& source_name,
   // Tables a solver does not read are refused by check_deck_use below, after all are valid.
   const bool mpm = c.solver.method == "mpm";
   if (mpm) read_mpm(table_section(root, "mpm", loc), c.mpm);
-  for (const Section& s : array_sections(root, "boundary", loc))
-    if (mpm) c.boundaries.push_back(read_boundary(s));
   const std::vector<Section> curves = array_sections(root, "curve", loc);
   for (const Section& s : curves) c.curves.push_back(read_curve(s, c.curves));
+  for (const Section& s : array_sections(root, "boundary", loc))
+    if (mpm) c.boundaries.push_back(read_boundary(s, c.curves));
   for (const Section& s : array_sections(root, "fixed", loc)) c.fixed.push_back(read_fixed(s));
   for (const Section& s : array_sections(root, "kinematic", loc))
     c.kinematic.push_back(read_kinematic(s, c.curves));

@@ -110,6 +110,7 @@ const std::vector<TableSpec>& schema() {
       {"boundary",
        true,
        {{"type", K::String},
+        {"curve", K::String},
         {"lo", K::Vec3},
         {"hi", K::Vec3},
         {"point", K::Vec3},

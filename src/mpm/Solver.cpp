@@ -310,10 +310,11 @@ void Solver::grid_update(double t, double dt) {
     if (bc.type == "cuboid") {
       c.kind = kernels::GridCondition::kCuboid;
       const BoxRegion box = cuboid_region(bc, t);
+      const double factor = bc.curve(t);
       for (int d = 0; d < 3; ++d) {
         c.lo[d] = box.lo[d];
         c.hi[d] = box.hi[d];
-        c.velocity[d] = bc.velocity[d];
+        c.velocity[d] = bc.velocity[d] * factor;
       }
     } else if (bc.type == "surface_collider") {
       c.kind = bc.surface == "sticky"     ? kernels::GridCondition::kSticky
@@ -421,6 +422,7 @@ void Solver::particle_conditions(double t, double dt) {
   for (const auto& bc : bcs_) {
     // Collective decisions only depend on t, identical on every rank.
     if (!active(bc, t)) continue;
+    const double factor = bc.curve(t);
     if (bc.type == "particle_impulse") {
       parallel::ExactSum local;
       for (std::size_t i = 0; i < n; ++i)
@@ -433,15 +435,16 @@ void Solver::particle_conditions(double t, double dt) {
       for (std::size_t i = 0; i < n; ++i)
         if (!(p_.flag[i] & 1) &&
             bc.region.contains({p_.x[3 * i], p_.x[3 * i + 1], p_.x[3 * i + 2]}))
-          for (int d = 0; d < 3; ++d) p_.v[3 * i + d] += dt * bc.force[d] / region_mass;
+          for (int d = 0; d < 3; ++d) p_.v[3 * i + d] += dt * (bc.force[d] * factor) / region_mass;
     } else if (bc.type == "enforce_particle_translation") {
       for (std::size_t i = 0; i < n; ++i)
         if (bc.region.contains({p_.x[3 * i], p_.x[3 * i + 1], p_.x[3 * i + 2]})) {
-          for (int d = 0; d < 3; ++d) p_.v[3 * i + d] = bc.velocity[d];
+          for (int d = 0; d < 3; ++d) p_.v[3 * i + d] = bc.velocity[d] * factor;
           std::fill_n(&p_.C[9 * i], 9, 0.0);
         }
     } else if (bc.type == "enforce_particle_velocity_rotation") {
-      const double* w = bc.angular_velocity.data();
+      const double w[3] = {bc.angular_velocity[0] * factor, bc.angular_velocity[1] * factor,
+                           bc.angular_velocity[2] * factor};
       for (std::size_t i = 0; i < n; ++i) {
         double r[3];
         for (int d = 0; d < 3; ++d) r[d] = p_.x[3 * i + d] - bc.point[d];
@@ -451,7 +454,7 @@ void Solver::particle_conditions(double t, double dt) {
         if (std::abs(h) > bc.half_height || dot3(radial, radial) > bc.radius * bc.radius) continue;
         const double wxr[3] = {w[1] * r[2] - w[2] * r[1], w[2] * r[0] - w[0] * r[2],
                                w[0] * r[1] - w[1] * r[0]};
-        for (int d = 0; d < 3; ++d) p_.v[3 * i + d] = bc.velocity[d] + wxr[d];
+        for (int d = 0; d < 3; ++d) p_.v[3 * i + d] = bc.velocity[d] * factor + wxr[d];
         // Rigid velocity gradient: skew(w).
         const double S[9] = {0, -w[2], w[1], w[2], 0, -w[0], -w[1], w[0], 0};
         std::copy(S, S + 9, &p_.C[9 * i]);

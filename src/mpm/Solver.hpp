@@ -89,7 +89,7 @@ inline BoundaryConfig surface_collider(const std::string& surface, const Vec3d& 
 //! velocity (clamp(t, start, end) - start) when it is "moving".
 inline BoxRegion cuboid_region(const BoundaryConfig& b, double t) {
   if (b.motion != "moving") return b.region;
-  const double tau = std::clamp(t, b.start, b.end) - b.start;
+  const double tau = b.curve.integral(b.start, std::clamp(t, b.start, b.end));
   BoxRegion r = b.region;
   for (int d = 0; d < 3; ++d) {
     r.lo[d] += b.velocity[d] * tau;
