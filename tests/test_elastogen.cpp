@@ -7,7 +7,7 @@
 #include <filesystem>
 
 #include "core/Error.hpp"
-#include "core/Signals.hpp"
+#include "parallel/Signals.hpp"
 #include "elastogen_test_util.hpp"
 #include "io/Checkpoint.hpp"
 

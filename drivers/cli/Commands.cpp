@@ -27,7 +27,7 @@
 #include "core/DeckUse.hpp"
 #include "core/Error.hpp"
 #include "core/Log.hpp"
-#include "core/Signals.hpp"
+#include "parallel/Signals.hpp"
 #include "diagnose/Diagnose.hpp"
 #include "diagnose/Effects.hpp"
 #include "elastogen/Simulation.hpp"

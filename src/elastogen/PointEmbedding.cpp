@@ -9,6 +9,7 @@
 
 #include "core/Error.hpp"
 #include "parallel/Distribute.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::elastogen {
 
@@ -136,8 +137,8 @@ void PointPlacer::add(long id, const double* p) {
 PointEmbedding::PointEmbedding(const VoxelSystem& sys, std::vector<PointAnchor> anchors, long count,
                                bool voxel_anchors, const std::string& what)
     : comm_(sys.grid().comm()), count_(count), h_(sys.h()), voxel_anchors_(voxel_anchors) {
-  MPI_Comm_rank(comm_, &rank_);
-  MPI_Comm_size(comm_, &size_);
+  rank_ = parallel::rank(comm_);
+  size_ = parallel::size(comm_);
   const parallel::NodeGrid& grid = sys.grid();
   const Box& G = sys.ghosted();
   for (int m = 0; m < 8; ++m)
@@ -183,21 +184,8 @@ PointEmbedding::PointEmbedding(const VoxelSystem& sys, std::vector<PointAnchor> 
   }
 
   // Rank 0 learns which points each rank evaluates, once.
-  const int local = static_cast<int>(ids_.size());
-  std::vector<int> counts(rank_ == 0 ? size_ : 0);
-  MPI_Gather(&local, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm_);
-  long total = 0;
-  if (rank_ == 0) {
-    gather_displs_.resize(size_);
-    for (int r = 0; r < size_; ++r) {
-      gather_displs_[r] = static_cast<int>(total);
-      total += counts[r];
-    }
-    gather_counts_ = counts;
-    gather_ids_.resize(total);
-  }
-  MPI_Gatherv(ids_.data(), local, MPI_LONG, gather_ids_.data(), gather_counts_.data(),
-              gather_displs_.data(), MPI_LONG, 0, comm_);
+  gather_ids_ = parallel::gather(comm_, ids_);
+  const long total = static_cast<long>(gather_ids_.size());
   // Every id exactly once: the count matches and the ids, sorted, are 0 .. count - 1.
   int bad = 0;
   if (rank_ == 0) {
@@ -209,7 +197,7 @@ PointEmbedding::PointEmbedding(const VoxelSystem& sys, std::vector<PointAnchor> 
       for (long e = 0; e < total && !bad; ++e) bad = sorted[e] != e;
     }
   }
-  MPI_Bcast(&bad, 1, MPI_INT, 0, comm_);
+  parallel::broadcast(comm_, &bad, 1);
   if (bad)
     throw RuntimeError(
         fmt::format("{}: {} anchors placed for {} points, not one per point", what, total, count_));
@@ -254,19 +242,8 @@ void PointEmbedding::evaluate_gradients(const double* x, std::vector<double>& ou
 std::vector<double> PointEmbedding::gather(const std::vector<double>& local, int width) const {
   if (local.size() != static_cast<std::size_t>(width) * ids_.size())
     throw std::logic_error("PointEmbedding::gather: array size does not match the local points");
-  std::vector<int> counts, displs;
-  std::vector<double> packed;
-  if (rank_ == 0) {
-    counts.resize(size_);
-    displs.resize(size_);
-    for (int r = 0; r < size_; ++r) {
-      counts[r] = width * gather_counts_[r];
-      displs[r] = width * gather_displs_[r];
-    }
-    packed.resize(static_cast<std::size_t>(width) * gather_ids_.size());
-  }
-  MPI_Gatherv(local.data(), static_cast<int>(local.size()), MPI_DOUBLE, packed.data(),
-              counts.data(), displs.data(), MPI_DOUBLE, 0, comm_);
+  // In rank order, as gather_ids_.
+  const std::vector<double> packed = parallel::gather(comm_, local);
   if (rank_ != 0) return {};
   std::vector<double> out(static_cast<std::size_t>(width) * static_cast<std::size_t>(count_));
   for (std::size_t e = 0; e < gather_ids_.size(); ++e)

@@ -3,8 +3,6 @@
 //! the splats of a run.
 #pragma once
 
-#include <mpi.h>
-
 #include <array>
 #include <cstdint>
 #include <string>
@@ -13,6 +11,7 @@
 
 #include "elastogen/VoxelSystem.hpp"
 #include "geometry/Shape.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::elastogen {
 
@@ -121,8 +120,7 @@ class PointEmbedding {
   std::vector<std::array<double, 3>> t_;
   std::vector<std::array<double, 8>> weights_;
   std::array<std::size_t, 8> corner_offset_{};
-  std::vector<int> gather_counts_, gather_displs_;  //!< rank 0: points per rank and offsets
-  std::vector<long> gather_ids_;                    //!< rank 0: ids in gather order
+  std::vector<long> gather_ids_;  //!< rank 0: ids in gather order
 };
 
 }  // namespace gen4d::elastogen

@@ -14,7 +14,7 @@
 #include "core/Error.hpp"
 #include "parallel/Collective.hpp"
 #include "core/Log.hpp"
-#include "core/Signals.hpp"
+#include "parallel/Signals.hpp"
 #include "core/Progress.hpp"
 #include "gaussians/DeckSplats.hpp"
 #include "gaussians/Render.hpp"
@@ -22,6 +22,7 @@
 #include "geometry/Shape.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/FrameWriter.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::elastogen {
 
@@ -126,8 +127,8 @@ DeckObject build_deck_object(const Config& cfg) {
 }
 
 Simulation::Simulation(MPI_Comm comm, const Config& cfg) : comm_(comm), cfg_(cfg) {
-  MPI_Comm_rank(comm, &rank_);
-  MPI_Comm_size(comm, &size_);
+  rank_ = parallel::rank(comm);
+  size_ = parallel::size(comm);
   if (cfg_.render.enabled) {  // bad render settings fail before the set-up's work
     kinematics_ = gaussians::KinematicsOptions::parse(cfg_.render.kinematics, "render.kinematics");
     renderer_ = std::make_unique<gaussians::RunRenderer>(comm_, cfg_.render);
@@ -351,11 +352,11 @@ void Simulation::open_surface(const std::string& out_dir, const io::FrameWriter&
 }
 
 void Simulation::write_surface(long index) {
-  const double start = MPI_Wtime();
+  const double start = parallel::wall_seconds();
   // Ghost positions are current after every step, reset and restart (Elastodynamics keeps
   // them so), which is all the corners of owned voxels need.
   std::vector<double> xyz = surface_->gather(dyn_->x().data());
-  const double gathered = MPI_Wtime();
+  const double gathered = parallel::wall_seconds();
   surface_gather_seconds_ += gathered - start;
   parallel::on_rank0(comm_, surface_dir_ + ": surface write failed", [&] {
     surface_mesh_.xyz = std::move(xyz);
@@ -370,7 +371,7 @@ void Simulation::write_surface(long index) {
     surface_bytes_ += static_cast<double>(std::filesystem::file_size(path, ec));
   });
   ++surface_files_;
-  surface_write_seconds_ += MPI_Wtime() - gathered;
+  surface_write_seconds_ += parallel::wall_seconds() - gathered;
 }
 
 void Simulation::render_frame(long index) {
@@ -451,8 +452,7 @@ void Simulation::report_timers(double wall, long steps) const {
             static_cast<double>(steps) / std::max(wall, 1e-9));
   for (const char* p : phases) {
     if (std::string(p) == "render" && !cfg_.render.enabled) continue;
-    double local = timers_.total(p), global = 0;
-    MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_MAX, comm_);
+    const double global = parallel::max_of(comm_, timers_.total(p));
     log::info("  {:<12} {:9.3f} s  {:5.1f} %", p, global, 100.0 * global / std::max(wall, 1e-9));
   }
 }

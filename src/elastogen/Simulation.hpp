@@ -3,8 +3,6 @@
 //! and restart.
 #pragma once
 
-#include <mpi.h>
-
 #include <memory>
 #include <string>
 #include <vector>
@@ -20,6 +18,7 @@
 #include "io/FrameWriter.hpp"
 #include "io/SurfaceIO.hpp"
 #include "parallel/Grid.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::elastogen {
 

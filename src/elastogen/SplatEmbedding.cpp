@@ -1,4 +1,5 @@
 #include "elastogen/SplatEmbedding.hpp"
+#include "parallel/Comm.hpp"
 
 #include <algorithm>
 
@@ -15,8 +16,8 @@ SplatEmbedding::SplatEmbedding(const VoxelSystem& sys, const geometry::Shape& sh
     long extrapolated = placer.extrapolated();
     double worst = placer.max_extrapolation();
     MPI_Comm comm = sys.grid().comm();
-    MPI_Allreduce(&extrapolated, &extrapolated_, 1, MPI_LONG, MPI_SUM, comm);
-    MPI_Allreduce(&worst, &max_extrapolation_, 1, MPI_DOUBLE, MPI_MAX, comm);
+    extrapolated_ = parallel::sum_of(comm, static_cast<long long>(extrapolated));
+    max_extrapolation_ = parallel::max_of(comm, worst);
     anchors = placer.take();
   }
   points_ = std::make_unique<PointEmbedding>(sys, std::move(anchors), n, true, "splat embedding");

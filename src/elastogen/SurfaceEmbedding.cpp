@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "core/Error.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::elastogen {
 
@@ -21,8 +22,8 @@ SurfaceSource choose_surface_source(const Config& cfg) {
 SurfaceEmbedding::SurfaceEmbedding(const VoxelSystem& sys, const geometry::Shape& shape,
                                    SurfaceSource source)
     : sys_(sys), comm_(sys.grid().comm()), source_(source) {
-  MPI_Comm_rank(comm_, &rank_);
-  MPI_Comm_size(comm_, &size_);
+  rank_ = parallel::rank(comm_);
+  size_ = parallel::size(comm_);
   std::vector<PointAnchor> anchors =
       source_ == SurfaceSource::Mesh ? build_mesh(shape) : build_voxels(shape);
   points_ = std::make_unique<PointEmbedding>(sys_, std::move(anchors), vertex_count_,
@@ -67,8 +68,8 @@ std::vector<PointAnchor> SurfaceEmbedding::build_mesh(const geometry::Shape& sha
   }
   long extrapolated = placer.extrapolated();
   double worst = placer.max_extrapolation();
-  MPI_Allreduce(&extrapolated, &extrapolated_, 1, MPI_LONG, MPI_SUM, comm_);
-  MPI_Allreduce(&worst, &max_extrapolation_, 1, MPI_DOUBLE, MPI_MAX, comm_);
+  extrapolated_ = parallel::sum_of(comm_, static_cast<long long>(extrapolated));
+  max_extrapolation_ = parallel::max_of(comm_, worst);
   return placer.take();
 }
 
@@ -91,17 +92,7 @@ std::vector<PointAnchor> SurfaceEmbedding::build_voxels(const geometry::Shape& s
             if (!probe.solid(nb)) keys.push_back(6 * probe.linear(c) + 2 * a + side);
           }
       }
-  const int local = static_cast<int>(keys.size());
-  std::vector<int> counts(rank_ == 0 ? size_ : 0), displs(rank_ == 0 ? size_ : 0);
-  MPI_Gather(&local, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm_);
-  long total = 0;
-  for (int r = 0; r < static_cast<int>(counts.size()); ++r) {
-    displs[r] = static_cast<int>(total);
-    total += counts[r];
-  }
-  std::vector<long> all(rank_ == 0 ? total : 0);
-  MPI_Gatherv(keys.data(), local, MPI_LONG, all.data(), counts.data(), displs.data(), MPI_LONG, 0,
-              comm_);
+  std::vector<long> all = parallel::gather(comm_, keys);
 
   // Rank 0: quads in a fixed order (voxels x fastest, then axis and side), vertices numbered
   // by ascending global node index, each anchored at its node (PointEmbedding sends it to the
@@ -156,7 +147,7 @@ std::vector<PointAnchor> SurfaceEmbedding::build_voxels(const geometry::Shape& s
     header[0] = static_cast<long>(verts.size());
     header[1] = static_cast<long>(triangles_.size());
   }
-  MPI_Bcast(header, 2, MPI_LONG, 0, comm_);
+  parallel::broadcast(comm_, header, 2);
   vertex_count_ = header[0];
   triangle_count_ = header[1];
   return anchors;

@@ -2,8 +2,6 @@
 //! diff-gaussian-rasterization, forward pass) so that users see what they trained.
 #pragma once
 
-#include <mpi.h>
-
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -12,6 +10,7 @@
 
 #include "gaussians/Camera.hpp"
 #include "gaussians/Splats.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::gaussians {
 

@@ -4,17 +4,17 @@
 // serial render, so the image is the same bit for bit for any distribution and rank count.
 // (Splitting the splats instead and compositing per-rank images is not exact: alpha blending
 // with early termination is only reproduced by merging every pixel's depth-sorted fragments.)
-#include <mpi.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <stdexcept>
 #include <vector>
 
 #include "core/Error.hpp"
 #include "gaussians/Render.hpp"
 #include "parallel/Distribute.hpp"
 #include "gaussians/RenderDetail.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::gaussians {
 
@@ -32,9 +32,8 @@ std::vector<int> row_bounds(MPI_Comm comm, const std::vector<detail::Projected>&
   std::vector<long long> mine(cost.size(), 0);
   for (const auto& g : local)
     for (int ty = g.y0; ty < g.y1; ++ty) mine[static_cast<std::size_t>(ty)] += g.x1 - g.x0;
-  std::vector<long long> all(cost.size(), 0);
-  MPI_Allreduce(mine.data(), all.data(), static_cast<int>(mine.size()), MPI_LONG_LONG, MPI_SUM,
-                comm);
+  std::vector<long long>& all = mine;
+  parallel::sum_in_place(comm, all.data(), static_cast<int>(all.size()));
   long long total = 0;
   for (std::size_t i = 0; i < cost.size(); ++i) total += (cost[i] += all[i]);
   std::vector<int> bounds(static_cast<std::size_t>(ranks) + 1, view.grid_y);
@@ -55,9 +54,7 @@ std::vector<int> row_bounds(MPI_Comm comm, const std::vector<detail::Projected>&
 
 Image render_distributed(MPI_Comm comm, const SplatFrame& local, const Camera& camera,
                          const RenderOptions& options) {
-  int rank = 0, ranks = 1;
-  MPI_Comm_rank(comm, &rank);
-  MPI_Comm_size(comm, &ranks);
+  const int rank = parallel::rank(comm), ranks = parallel::size(comm);
   if (ranks == 1) return render(local, camera, options);
 
   const detail::View view(camera);
@@ -127,23 +124,16 @@ Image render_distributed(MPI_Comm comm, const SplatFrame& local, const Camera& c
   double t4 = now();
   st.blend += t4 - t3;
 
-  // Rank 0 gathers the rows.
+  // Rank 0 gathers the rows: the ranks' row ranges follow each other from the top.
   Image img;
-  std::vector<int> gcount, gdispl;
+  std::vector<float> rows = parallel::gather(comm, part);
   if (rank == 0) {
     img.width = view.width;
     img.height = view.height;
-    img.rgb.resize(static_cast<std::size_t>(view.height) * row_floats);
-    for (int r = 0; r < ranks; ++r) {
-      const int a = pixel_row(bounds[static_cast<std::size_t>(r)]);
-      const int b = pixel_row(bounds[static_cast<std::size_t>(r) + 1]);
-      gcount.push_back(static_cast<int>(static_cast<std::size_t>(b - a) * row_floats));
-      gdispl.push_back(static_cast<int>(static_cast<std::size_t>(a) * row_floats));
-    }
+    if (rows.size() != static_cast<std::size_t>(view.height) * row_floats)
+      throw std::logic_error("render_distributed: the ranks' rows do not cover the image");
+    img.rgb = std::move(rows);
   }
-  MPI_Gatherv(part.data(), static_cast<int>(part.size()), MPI_FLOAT,
-              rank == 0 ? img.rgb.data() : nullptr, gcount.data(), gdispl.data(), MPI_FLOAT, 0,
-              comm);
   st.gather += now() - t4;
   return img;
 }

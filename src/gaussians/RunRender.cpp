@@ -13,6 +13,7 @@
 #include "gaussians/Kinematics.hpp"
 #include "gaussians/Ply.hpp"
 #include "gaussians/Video.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::gaussians {
 
@@ -113,7 +114,7 @@ Camera orbit_camera(const RenderConfig& r, long index) {
 }
 
 RunRenderer::RunRenderer(MPI_Comm comm, const RenderConfig& r) : comm_(comm), cfg_(r) {
-  MPI_Comm_rank(comm_, &rank_);
+  rank_ = parallel::rank(comm_);
   if (cfg_.camera == "auto") cfg_.radius = 0;  // set by frame_object
   if (cfg_.camera != "orbit" && cfg_.camera != "auto") fixed_ = read_camera_spec(cfg_.camera);
   for (int c = 0; c < 3; ++c) options_.background[c] = static_cast<float>(cfg_.background[c]);
@@ -127,9 +128,7 @@ RunRenderer::RunRenderer(MPI_Comm comm, const RenderConfig& r) : comm_(comm), cf
     } catch (const InputError& e) {
       throw InputError(std::string("render.scenery: ") + e.what());
     }
-    int size = 1;
-    MPI_Comm_size(comm_, &size);
-    const std::size_t n = all.size(), P = static_cast<std::size_t>(size);
+    const std::size_t n = all.size(), P = static_cast<std::size_t>(parallel::size(comm_));
     const std::size_t r = static_cast<std::size_t>(rank_);
     const std::size_t begin = n * r / P, end = n * (r + 1) / P;
     SplatSet mine;

@@ -4,8 +4,6 @@
 //! the end. Both solvers use it; they only supply each rank's deformed splats.
 #pragma once
 
-#include <mpi.h>
-
 #include <array>
 #include <string>
 
@@ -13,6 +11,7 @@
 #include "gaussians/Camera.hpp"
 #include "gaussians/Render.hpp"
 #include "gaussians/Splats.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::gaussians {
 

@@ -10,7 +10,7 @@
 
 #include "core/Log.hpp"
 #include "core/Progress.hpp"
-#include "core/Signals.hpp"
+#include "parallel/Signals.hpp"
 #include "geometry/Shape.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/Hdf5.hpp"

@@ -9,6 +9,7 @@
 
 #include "core/Error.hpp"
 #include "core/Log.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::neural {
 namespace {
@@ -19,10 +20,7 @@ WeightGenerator& installed() {
 }
 
 void broadcast_string(MPI_Comm comm, std::string& s) {
-  long n = static_cast<long>(s.size());
-  MPI_Bcast(&n, 1, MPI_LONG, 0, comm);
-  s.resize(static_cast<std::size_t>(n));
-  if (n) MPI_Bcast(s.data(), static_cast<int>(n), MPI_CHAR, 0, comm);
+  s = parallel::broadcast(comm, s);
 }
 
 }  // namespace
@@ -33,8 +31,7 @@ void set_weight_generator(WeightGenerator generator) {
 
 std::unique_ptr<NeuralMtl> load_network(MPI_Comm comm, const std::string& file,
                                         const std::string& law, double nu, double youngs_modulus) {
-  int rank = 0;
-  MPI_Comm_rank(comm, &rank);
+  const int rank = parallel::rank(comm);
   NeuralMtlWeights w;
   std::string error;
   std::string where = file.empty() ? "material.neural_weights (generated)" : file;
@@ -72,11 +69,11 @@ std::unique_ptr<NeuralMtl> load_network(MPI_Comm comm, const std::string& file,
   broadcast_string(comm, error);
   if (!error.empty()) throw InputError(error);
   long sizes[2] = {static_cast<long>(meta.size()), static_cast<long>(flat.size())};
-  MPI_Bcast(sizes, 2, MPI_LONG, 0, comm);
+  parallel::broadcast(comm, sizes, 2);
   meta.resize(sizes[0]);
   flat.resize(sizes[1]);
-  MPI_Bcast(meta.data(), static_cast<int>(sizes[0]), MPI_DOUBLE, 0, comm);
-  MPI_Bcast(flat.data(), static_cast<int>(sizes[1]), MPI_DOUBLE, 0, comm);
+  parallel::broadcast(comm, meta.data(), meta.size());
+  parallel::broadcast(comm, flat.data(), flat.size());
   broadcast_string(comm, w.source);
   if (rank != 0) {
     std::vector<int> hidden(meta.begin(), meta.end());

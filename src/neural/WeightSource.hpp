@@ -6,9 +6,8 @@
 #include <memory>
 #include <string>
 
-#include <mpi.h>
-
 #include "neural/NeuralMtl.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::neural {
 

@@ -14,6 +14,8 @@ namespace gen4d::parallel {
 
 int rank(MPI_Comm comm);
 int size(MPI_Comm comm);
+//! Seconds on MPI's wall clock (not collective).
+double wall_seconds();
 
 //! Element-wise over every rank, in place: the largest, the smallest, the sum.
 void max_in_place(MPI_Comm comm, double* values, int n);

@@ -1,4 +1,4 @@
-#include "core/Signals.hpp"
+#include "parallel/Signals.hpp"
 
 #include <csignal>
 
