@@ -8,6 +8,9 @@ set_tests_properties(diagnose_np1 PROPERTIES FIXTURES_SETUP diagnose_one_rank_re
 set_tests_properties(diagnose_np2 PROPERTIES FIXTURES_REQUIRED diagnose_one_rank_report)
 # Its reference sums for the vector kernels round every product and sum, like the kernels.
 set_source_files_properties(test_diagnose.cpp PROPERTIES COMPILE_OPTIONS -ffp-contract=off)
+# The diagnosis's stages (Pipeline.hpp) one at a time on a tiny cantilever (the ranks'
+# agreement is DiagnoseAcrossRanks's).
+gen4d_test(diagnose_stages SOURCES test_diagnose_stages.cpp LIBS gen4d_diagnose RANKS 1)
 # The forward model's block LDL^T solver against Eigen's.
 gen4d_test(block_ldlt SOURCES test_block_ldlt.cpp LIBS gen4d_diagnose RANKS 1)
 # The forward model's von Mises return map against the MPM von_mises material.

@@ -3,14 +3,13 @@
 //! select on held-out data, and report (report.json, report.md, fit.csv, PNG plots).
 #pragma once
 
-#include <mpi.h>
-
 #include <array>
 #include <map>
 #include <string>
 #include <vector>
 
 #include "core/Config.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::diagnose {
 

@@ -14,13 +14,14 @@
 #include "core/Error.hpp"
 #include "core/Log.hpp"
 #include "parallel/PetscCheck.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::diagnose {
 
 Evaluator::Evaluator(MPI_Comm comm, const ForwardModel& model, const Observations& obs)
     : comm_(comm), model_(model), obs_(obs) {
-  MPI_Comm_rank(comm, &rank_);
-  MPI_Comm_size(comm, &size_);
+  rank_ = parallel::rank(comm);
+  size_ = parallel::size(comm);
 }
 
 void Evaluator::set_horizon(double t) {
@@ -105,17 +106,16 @@ std::vector<Prediction> Evaluator::run(const std::vector<Physics>& batch) {
     double head[5] = {p.ok ? 1.0 : 0.0, p.max_mises, p.max_speed,
                       static_cast<double>(p.failure.size()),
                       static_cast<double>(p.continued_points)};
-    MPI_Bcast(head, 5, MPI_DOUBLE, owner, comm_);
+    parallel::broadcast(comm_, head, 5, owner);
     p.ok = head[0] != 0.0;
     p.max_mises = head[1];
     p.max_speed = head[2];
     p.failure.resize(static_cast<std::size_t>(head[3]));
     p.continued_points = static_cast<long>(head[4]);
-    if (!p.failure.empty())
-      MPI_Bcast(p.failure.data(), static_cast<int>(p.failure.size()), MPI_CHAR, owner, comm_);
+    if (!p.failure.empty()) parallel::broadcast(comm_, p.failure.data(), p.failure.size(), owner);
     if (p.ok) {
       p.y.resize(obs_.size());
-      MPI_Bcast(p.y.data(), static_cast<int>(p.y.size()), MPI_DOUBLE, owner, comm_);
+      parallel::broadcast(comm_, p.y.data(), p.y.size(), owner);
       if (p.continued_points > 0) ++continued_;
     } else if (failed_++ == 0) {
       first_failure_ = p.failure;
@@ -138,8 +138,8 @@ std::vector<Prediction> Evaluator::run(const std::vector<Physics>& batch) {
   }
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_call).count();
-  double local[2] = {local_seconds, wall - local_seconds}, all[2] = {0, 0};
-  MPI_Allreduce(local, all, 2, MPI_DOUBLE, MPI_SUM, comm_);
+  double all[2] = {local_seconds, wall - local_seconds};
+  parallel::sum_in_place(comm_, all, 2);
   seconds_ += all[0];
   idle_ += all[1];
   runs_ += static_cast<long>(todo.size());

@@ -2,8 +2,6 @@
 //! Gauss-Newton with finite-difference Jacobians whose columns run in parallel).
 #pragma once
 
-#include <mpi.h>
-
 #include <Eigen/Dense>
 #include <deque>
 #include <functional>
@@ -13,6 +11,7 @@
 #include <vector>
 
 #include "diagnose/Model.hpp"
+#include "parallel/Comm.hpp"
 
 namespace gen4d::diagnose {
 

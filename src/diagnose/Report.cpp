@@ -83,126 +83,140 @@ std::string jparams(const std::vector<ParamEstimate>& ps, const std::string& var
   return s + "}";
 }
 
-std::string json(const Diagnosis& d) {
+//! A JSON object written one key at a time.
+struct JsonObject {
   std::string s = "{\n";
-  auto kv = [&](const std::string& k, const std::string& v, bool last = false) {
+  void kv(const std::string& k, const std::string& v, bool last = false) {
     s += "  " + jstr(k) + ": " + v + (last ? "\n" : ",\n");
-  };
-  kv("verdict", jstr(d.verdict));
-  kv("effect", d.effect.empty() ? "null" : jstr(d.effect));
-  kv("effect_parameters",
-     jparams(d.effect_parameters, d.effect == "material_law" ? d.variant : "", true));
-  kv("effect_variant", d.variant.empty() ? "null" : jstr(d.variant));
-  kv("baseline_parameters",
-     fmt::format("{{\"youngs_modulus\": {}, \"poisson_ratio\": {}, \"density\": {}, "
-                 "\"youngs_modulus_over_density\": {}, \"nominal_youngs_modulus\": {}, "
-                 "\"nominal_poisson_ratio\": {}, \"density_calibrated\": false}}",
-                 jnum(d.youngs_modulus), jnum(d.poisson_ratio), jnum(d.density),
-                 jnum(d.youngs_modulus / d.density), jnum(d.youngs_nominal),
-                 jnum(d.poisson_nominal)));
-  kv("region", d.has_region ? jbox(d.region) : "null");
-  kv("located_region", d.located ? jbox(d.located_region) : "null");
+  }
+};
+
+//! report.json's verdict, parameters, regions, windows, markers and rms.
+void json_result(JsonObject& j, const Diagnosis& d) {
+  j.kv("verdict", jstr(d.verdict));
+  j.kv("effect", d.effect.empty() ? "null" : jstr(d.effect));
+  j.kv("effect_parameters",
+       jparams(d.effect_parameters, d.effect == "material_law" ? d.variant : "", true));
+  j.kv("effect_variant", d.variant.empty() ? "null" : jstr(d.variant));
+  j.kv("baseline_parameters",
+       fmt::format("{{\"youngs_modulus\": {}, \"poisson_ratio\": {}, \"density\": {}, "
+                   "\"youngs_modulus_over_density\": {}, \"nominal_youngs_modulus\": {}, "
+                   "\"nominal_poisson_ratio\": {}, \"density_calibrated\": false}}",
+                   jnum(d.youngs_modulus), jnum(d.poisson_ratio), jnum(d.density),
+                   jnum(d.youngs_modulus / d.density), jnum(d.youngs_nominal),
+                   jnum(d.poisson_nominal)));
+  j.kv("region", d.has_region ? jbox(d.region) : "null");
+  j.kv("located_region", d.located ? jbox(d.located_region) : "null");
   std::string tw = "[";
   for (std::size_t i = 0; i < d.time_windows.size(); ++i)
     tw += fmt::format("{}[{}, {}]", i ? ", " : "", jnum(d.time_windows[i].first),
                       jnum(d.time_windows[i].second));
-  kv("time_windows", tw + "]");
+  j.kv("time_windows", tw + "]");
   std::string ph = "[";
   for (std::size_t i = 0; i < d.window_phase.size(); ++i)
     ph += (i ? ", " : "") + jstr(d.window_phase[i]);
-  kv("time_window_phases", ph + "]");
+  j.kv("time_window_phases", ph + "]");
   std::string mk = "[";
   for (std::size_t i = 0; i < d.markers.size(); ++i) mk += (i ? ", " : "") + jstr(d.markers[i]);
-  kv("markers", mk + "]");
-  kv("rms_nominal", jnum(d.rms_nominal));
-  kv("rms_before", jnum(d.rms_before));
-  kv("rms_after", jnum(d.rms_after));
-  kv("heldout_rms_nominal", jnum(d.heldout_rms_nominal));
-  kv("heldout_rms_before", jnum(d.heldout_rms_before));
-  kv("heldout_rms_after", jnum(d.heldout_rms_after));
-  kv("runner_up",
-     d.runner_up.empty()
-         ? "null"
-         : fmt::format("{{\"effect\": {}, \"score\": {}, \"heldout_rms\": {}, "
-                       "\"delta_bic\": {}, \"vuong_z\": {}, \"gap_over_unexplained\": {}}}",
-                       jstr(d.runner_up), jnum(d.runner_up_heldout), jnum(d.runner_up_heldout),
-                       jnum(d.runner_up_bic), jnum(d.vuong_z), jnum(d.runner_up_gap)));
-  kv("noise_estimate", jnum(d.noise_position));
-  kv("noise_estimate_recording", jnum(d.noise_recording_position));
-  kv("noise_estimate_acceleration", jnum(d.noise_acceleration));
-  kv("noise_estimate_fitted", jnum(d.noise_fitted_position));
-  kv("noise_estimate_acceleration_fitted", jnum(d.noise_fitted_acceleration));
-  kv("misfit_tests",
-     fmt::format("{{\"chi2_per_dof\": {}, \"whiteness_p\": {}, \"lag1\": {}, "
-                 "\"misfit\": {}}}",
-                 jnum(d.chi2_red), jnum(d.whiteness_p), jnum(d.lag1), d.misfit ? "true" : "false"));
-  kv("numerical_check",
-     fmt::format("{{\"dt\": {}, \"dt_half_amplitude_change_in_noise_sd\": {}, "
-                 "\"dt_half_late_difference_in_noise_sd\": {}, \"dt_halved\": {}}}",
-                 jnum(d.dt), jnum(d.numerical_change), jnum(d.numerical_dispersion),
-                 d.dt_halved ? "true" : "false"));
+  j.kv("markers", mk + "]");
+  j.kv("rms_nominal", jnum(d.rms_nominal));
+  j.kv("rms_before", jnum(d.rms_before));
+  j.kv("rms_after", jnum(d.rms_after));
+  j.kv("heldout_rms_nominal", jnum(d.heldout_rms_nominal));
+  j.kv("heldout_rms_before", jnum(d.heldout_rms_before));
+  j.kv("heldout_rms_after", jnum(d.heldout_rms_after));
+  j.kv("runner_up",
+       d.runner_up.empty()
+           ? "null"
+           : fmt::format("{{\"effect\": {}, \"score\": {}, \"heldout_rms\": {}, "
+                         "\"delta_bic\": {}, \"vuong_z\": {}, \"gap_over_unexplained\": {}}}",
+                         jstr(d.runner_up), jnum(d.runner_up_heldout), jnum(d.runner_up_heldout),
+                         jnum(d.runner_up_bic), jnum(d.vuong_z), jnum(d.runner_up_gap)));
+}
+
+//! report.json's noise, misfit tests and the checks of the model's own error.
+void json_checks(JsonObject& j, const Diagnosis& d) {
+  j.kv("noise_estimate", jnum(d.noise_position));
+  j.kv("noise_estimate_recording", jnum(d.noise_recording_position));
+  j.kv("noise_estimate_acceleration", jnum(d.noise_acceleration));
+  j.kv("noise_estimate_fitted", jnum(d.noise_fitted_position));
+  j.kv("noise_estimate_acceleration_fitted", jnum(d.noise_fitted_acceleration));
+  j.kv("misfit_tests", fmt::format("{{\"chi2_per_dof\": {}, \"whiteness_p\": {}, \"lag1\": {}, "
+                                   "\"misfit\": {}}}",
+                                   jnum(d.chi2_red), jnum(d.whiteness_p), jnum(d.lag1),
+                                   d.misfit ? "true" : "false"));
+  j.kv("numerical_check",
+       fmt::format("{{\"dt\": {}, \"dt_half_amplitude_change_in_noise_sd\": {}, "
+                   "\"dt_half_late_difference_in_noise_sd\": {}, \"dt_halved\": {}}}",
+                   jnum(d.dt), jnum(d.numerical_change), jnum(d.numerical_dispersion),
+                   d.dt_halved ? "true" : "false"));
   {
     const TimeStepCheck& t = d.time_step;
-    kv("time_step_check",
-       !t.done ? "null"
-               : fmt::format("{{\"dt_half_late_difference_in_noise_sd\": {}, \"threshold\": {}, "
-                             "\"depends_on_dt\": {}, \"chi2_time_step_error\": {}, "
-                             "\"chi2_fit\": {}, \"runs\": {}}}",
-                             jnum(t.dispersion), jnum(t.threshold), t.flagged ? "true" : "false",
-                             jnum(t.chi2_error), jnum(t.chi2_fit), t.runs));
+    j.kv("time_step_check",
+         !t.done ? "null"
+                 : fmt::format("{{\"dt_half_late_difference_in_noise_sd\": {}, \"threshold\": {}, "
+                               "\"depends_on_dt\": {}, \"chi2_time_step_error\": {}, "
+                               "\"chi2_fit\": {}, \"runs\": {}}}",
+                               jnum(t.dispersion), jnum(t.threshold), t.flagged ? "true" : "false",
+                               jnum(t.chi2_error), jnum(t.chi2_fit), t.runs));
   }
   {
     const RefinementCheck& r = d.refinement;
-    kv("discretisation_check",
-       fmt::format("{{\"done\": {}, \"skipped\": {}, \"grid\": {}, \"voxel_size\": {}, "
-                   "\"voxels\": {}, "
-                   "\"channels\": {}, \"youngs_modulus_refitted\": {}, \"error_rms\": {}, "
-                   "\"error_in_noise_sd\": {}, \"error_chi2_scored\": {}, \"upper_bound\": {}, "
-                   "\"runs\": {}}}",
-                   r.done ? "true" : "false", jstr(r.skipped),
-                   jstr(r.coarse ? "2h (grid convergence index, Fs 3)" : "h/2 (Richardson)"),
-                   jnum(r.voxel_size), r.voxels, r.channels, jnum(r.youngs_modulus), jnum(r.rms),
-                   jnum(r.noise_sd), jnum(r.chi2), r.upper_bound ? "true" : "false", r.runs));
-    kv("parameters_effective", model_error_dominates(d) ? "true" : "false");
+    j.kv("discretisation_check",
+         fmt::format("{{\"done\": {}, \"skipped\": {}, \"grid\": {}, \"voxel_size\": {}, "
+                     "\"voxels\": {}, "
+                     "\"channels\": {}, \"youngs_modulus_refitted\": {}, \"error_rms\": {}, "
+                     "\"error_in_noise_sd\": {}, \"error_chi2_scored\": {}, \"upper_bound\": {}, "
+                     "\"runs\": {}}}",
+                     r.done ? "true" : "false", jstr(r.skipped),
+                     jstr(r.coarse ? "2h (grid convergence index, Fs 3)" : "h/2 (Richardson)"),
+                     jnum(r.voxel_size), r.voxels, r.channels, jnum(r.youngs_modulus), jnum(r.rms),
+                     jnum(r.noise_sd), jnum(r.chi2), r.upper_bound ? "true" : "false", r.runs));
+    j.kv("parameters_effective", model_error_dominates(d) ? "true" : "false");
   }
   {
     const IntervalBasis& ib = d.intervals;
     const RefinementCheck& f = ib.fit_refinement;
-    kv("intervals",
-       fmt::format("{{\"threshold_from\": {}, \"threshold_in_residual_variances\": {}, "
-                   "\"residual_variance\": {}, \"chi2_time_step_error\": {}, "
-                   "\"chi2_cells_error\": {}, \"fit_discretisation_check\": {}, "
-                   "\"scan_points\": {}, \"scan_runs\": {}, \"profile_step_runs\": {}, "
-                   "\"profile_steps_lowering\": {}, \"profile_probes_again\": {}}}",
-                   jstr(ib.from), jnum(ib.threshold), jnum(ib.s2), jnum(ib.chi2_time_step),
-                   jnum(ib.chi2_cells),
-                   !(f.done || !f.skipped.empty())
-                       ? std::string("null")
-                       : fmt::format("{{\"done\": {}, \"skipped\": {}, \"voxel_size\": {}, "
-                                     "\"youngs_modulus_refitted\": {}, \"error_rms\": {}, "
-                                     "\"error_in_noise_sd\": {}, \"error_chi2_fitted\": {}, "
-                                     "\"refit_linearised\": {}, \"runs\": {}}}",
-                                     f.done ? "true" : "false", jstr(f.skipped), jnum(f.voxel_size),
-                                     jnum(f.youngs_modulus), jnum(f.rms), jnum(f.noise_sd),
-                                     jnum(f.chi2), f.linearised ? "true" : "false", f.runs),
-                   ib.scan_points, ib.scan_runs, ib.profile_runs, ib.profile_lowered,
-                   ib.profile_refines));
+    j.kv(
+        "intervals",
+        fmt::format(
+            "{{\"threshold_from\": {}, \"threshold_in_residual_variances\": {}, "
+            "\"residual_variance\": {}, \"chi2_time_step_error\": {}, "
+            "\"chi2_cells_error\": {}, \"fit_discretisation_check\": {}, "
+            "\"scan_points\": {}, \"scan_runs\": {}, \"profile_step_runs\": {}, "
+            "\"profile_steps_lowering\": {}, \"profile_probes_again\": {}}}",
+            jstr(ib.from), jnum(ib.threshold), jnum(ib.s2), jnum(ib.chi2_time_step),
+            jnum(ib.chi2_cells),
+            !(f.done || !f.skipped.empty())
+                ? std::string("null")
+                : fmt::format("{{\"done\": {}, \"skipped\": {}, \"voxel_size\": {}, "
+                              "\"youngs_modulus_refitted\": {}, \"error_rms\": {}, "
+                              "\"error_in_noise_sd\": {}, \"error_chi2_fitted\": {}, "
+                              "\"refit_linearised\": {}, \"runs\": {}}}",
+                              f.done ? "true" : "false", jstr(f.skipped), jnum(f.voxel_size),
+                              jnum(f.youngs_modulus), jnum(f.rms), jnum(f.noise_sd), jnum(f.chi2),
+                              f.linearised ? "true" : "false", f.runs),
+            ib.scan_points, ib.scan_runs, ib.profile_runs, ib.profile_lowered, ib.profile_refines));
   }
   {
     const MisfitBudget& b = d.budget;
-    kv("misfit_budget",
-       fmt::format("{{\"evaluated\": {}, \"heldout_chi2\": {}, \"noise_chi2\": {}, "
-                   "\"noise_sd_residual\": {}, \"most_explainable\": {}, \"exhausted\": {}}}",
-                   b.evaluated ? "true" : "false", jnum(b.scored_chi2), jnum(b.noise_chi2),
-                   jnum(b.noise_sd), jnum(b.bound), b.exhausted ? "true" : "false"));
+    j.kv("misfit_budget",
+         fmt::format("{{\"evaluated\": {}, \"heldout_chi2\": {}, \"noise_chi2\": {}, "
+                     "\"noise_sd_residual\": {}, \"most_explainable\": {}, \"exhausted\": {}}}",
+                     b.evaluated ? "true" : "false", jnum(b.scored_chi2), jnum(b.noise_chi2),
+                     jnum(b.noise_sd), jnum(b.bound), b.exhausted ? "true" : "false"));
   }
+}
+
+//! report.json's signatures, candidates, contenders, provenance and cost.
+void json_lists(JsonObject& j, const Diagnosis& d) {
   std::string sg = "[";
   for (std::size_t i = 0; i < d.signatures.size(); ++i)
     sg += fmt::format("{}{{\"name\": {}, \"present\": {}, \"value\": {}, \"detail\": {}}}",
                       i ? ", " : "", jstr(d.signatures[i].name),
                       d.signatures[i].present ? "true" : "false", jnum(d.signatures[i].value),
                       jstr(d.signatures[i].detail));
-  kv("signatures", sg + "]");
+  j.kv("signatures", sg + "]");
   std::string cs = "[";
   for (std::size_t i = 0; i < d.candidates.size(); ++i) {
     const Candidate& c = d.candidates[i];
@@ -219,62 +233,60 @@ std::string json(const Diagnosis& d) {
           jnum(c.rms), jnum(c.heldout_rms), c.passes ? "true" : "false", jstr(c.why));
     cs += "}";
   }
-  kv("candidates", cs + "]");
+  j.kv("candidates", cs + "]");
   std::string ct = "[";
   for (std::size_t i = 0; i < d.contenders.size(); ++i)
     ct += (i ? ", " : "") + jstr(d.contenders[i]);
-  kv("contenders", ct + "]");
-  kv("ambiguity_experiment",
-     d.ambiguity_experiment.empty() ? "null" : jstr(d.ambiguity_experiment));
-  kv("unexplained_misfit", d.unexplained.empty() ? "null" : jstr(d.unexplained));
-  kv("deck", jstr(d.deck));
-  kv("recording", jstr(d.recording));
-  kv("forward_model", jstr(d.model));
+  j.kv("contenders", ct + "]");
+  j.kv("ambiguity_experiment",
+       d.ambiguity_experiment.empty() ? "null" : jstr(d.ambiguity_experiment));
+  j.kv("unexplained_misfit", d.unexplained.empty() ? "null" : jstr(d.unexplained));
+  j.kv("deck", jstr(d.deck));
+  j.kv("recording", jstr(d.recording));
+  j.kv("forward_model", jstr(d.model));
   {
     std::string lo = "[";
     for (std::size_t i = 0; i < d.effects_left_out.size(); ++i)
       lo += fmt::format("{}{{\"effect\": {}, \"why\": {}}}", i ? ", " : "",
                         jstr(d.effects_left_out[i].first), jstr(d.effects_left_out[i].second));
-    kv("effects_left_out", lo + "]");
+    j.kv("effects_left_out", lo + "]");
   }
   {
     std::string dr = "[";
     for (std::size_t i = 0; i < d.deeper_refits.size(); ++i)
       dr += (i ? ", " : "") + jstr(d.deeper_refits[i]);
-    kv("deeper_refits", dr + "]");
+    j.kv("deeper_refits", dr + "]");
   }
-  kv("polish", fmt::format("{{\"rounds\": {}, \"runs\": {}, \"chi2_before\": {}, "
-                           "\"chi2_after\": {}, \"reason\": {}}}",
-                           d.polish.rounds, d.polish.runs, jnum(d.polish.chi2_before),
-                           jnum(d.polish.chi2_after), jstr(d.polish.reason)));
+  j.kv("polish", fmt::format("{{\"rounds\": {}, \"runs\": {}, \"chi2_before\": {}, "
+                             "\"chi2_after\": {}, \"reason\": {}}}",
+                             d.polish.rounds, d.polish.runs, jnum(d.polish.chi2_before),
+                             jnum(d.polish.chi2_after), jstr(d.polish.reason)));
   std::string costs = "[";
   for (std::size_t i = 0; i < d.phases.size(); ++i)
     costs += fmt::format("{}{{\"phase\": {}, \"runs\": {}, \"wall_seconds\": {}}}", i ? ", " : "",
                          jstr(d.phases[i].name), d.phases[i].runs, jnum(d.phases[i].wall_seconds));
-  kv("cost",
-     fmt::format("{{\"forward_runs\": {}, \"runs_reused\": {}, \"failed_runs\": {}, "
-                 "\"first_failure\": {}, \"continued_runs\": {}, \"run_seconds\": {}, "
-                 "\"idle_seconds\": {}, \"wall_seconds\": {}, \"ranks\": {}, \"phases\": {}]}}",
-                 d.runs, d.runs_reused, d.failed_runs,
-                 d.failed_runs > 0 ? jstr(d.first_failure) : std::string("null"), d.continued_runs,
-                 jnum(d.run_seconds), jnum(d.idle_seconds), jnum(d.wall_seconds), d.ranks, costs),
-     true);
-  return s + "}\n";
+  j.kv(
+      "cost",
+      fmt::format("{{\"forward_runs\": {}, \"runs_reused\": {}, \"failed_runs\": {}, "
+                  "\"first_failure\": {}, \"continued_runs\": {}, \"run_seconds\": {}, "
+                  "\"idle_seconds\": {}, \"wall_seconds\": {}, \"ranks\": {}, \"phases\": {}]}}",
+                  d.runs, d.runs_reused, d.failed_runs,
+                  d.failed_runs > 0 ? jstr(d.first_failure) : std::string("null"), d.continued_runs,
+                  jnum(d.run_seconds), jnum(d.idle_seconds), jnum(d.wall_seconds), d.ranks, costs),
+      true);
 }
 
-std::string markdown(const Diagnosis& d) {
-  std::ostringstream m;
-  const bool mpm = d.model == "mpm";
-  const char* cells = mpm ? "cells" : "voxels";
-  m << "# gen4d diagnose\n\n";
-  m << fmt::format("Deck `{}`, recording `{}`; forward model: {}.\n\n", d.deck, d.recording,
-                   d.model == "mpm" ? "the MPM solver (particles on a grid)"
-                                    : "the deck's voxels (hexahedra, trapezoidal rule)");
-  if (!d.effects_left_out.empty()) {
-    m << "Effects of the library this model does not represent, not tried:";
-    for (const auto& [name, why] : d.effects_left_out) m << fmt::format(" {} ({});", name, why);
-    m << "\n\n";
-  }
+std::string json(const Diagnosis& d) {
+  JsonObject j;
+  json_result(j, d);
+  json_checks(j, d);
+  json_lists(j, d);
+  return j.s + "}\n";
+}
+
+//! report.md's verdict: the effect, its parameters and their intervals, or why none.
+void markdown_verdict(std::ostringstream& m, const Diagnosis& d) {
+  const char* cells = d.model == "mpm" ? "cells" : "voxels";
   m << "## Verdict\n\n";
   if (d.verdict == "none") {
     m << "**No missing physics.** After calibrating the baseline no effect of the library "
@@ -346,6 +358,12 @@ std::string markdown(const Diagnosis& d) {
                        d.region.hi[1], d.region.hi[2]);
     if (!d.ambiguity_experiment.empty()) m << d.ambiguity_experiment << "\n\n";
   }
+}
+
+//! report.md's fit: the rms of each model, the checks of the model's own error, the misfit.
+void markdown_fit(std::ostringstream& m, const Diagnosis& d) {
+  const bool mpm = d.model == "mpm";
+  const char* cells = d.model == "mpm" ? "cells" : "voxels";
   m << "## Fit\n\n| | fitted data rms (m) | held-out rms (m) |\n|---|---|---|\n";
   m << fmt::format("| nominal deck | {:.4g} | {:.4g} |\n", d.rms_nominal, d.heldout_rms_nominal);
   m << fmt::format("| calibrated baseline | {:.4g} | {:.4g} |\n", d.rms_before,
@@ -445,6 +463,10 @@ std::string markdown(const Diagnosis& d) {
       "(lag-1 autocorrelation {:.2f}) -> {}.\n\n",
       d.chi2_red, d.whiteness_p, d.lag1,
       d.misfit ? "something is not modelled" : "consistent with noise");
+}
+
+//! report.md's where and when: time windows, markers, the stiffness map, signatures.
+void markdown_where(std::ostringstream& m, const Diagnosis& d) {
   m << "## Where and when\n\n";
   if (d.time_windows.empty())
     m << "No time window has residual variance above twice the noise.\n\n";
@@ -463,6 +485,10 @@ std::string markdown(const Diagnosis& d) {
   m << "Signatures:\n\n";
   for (const auto& s : d.signatures)
     m << fmt::format("- {} {}: {}\n", s.present ? "[x]" : "[ ]", s.name, s.detail);
+}
+
+//! report.md's candidates, the rules, the cost.
+void markdown_candidates(std::ostringstream& m, const Diagnosis& d) {
   m << "\n## Candidates\n\n| effect | screening chi2 drop | refit chi2 | dBIC | held-out rms "
        "(m) | selected by the rules |\n|---|---|---|---|---|---|\n";
   for (const auto& c : d.candidates) {
@@ -527,6 +553,23 @@ std::string markdown(const Diagnosis& d) {
       m << fmt::format("| {} | {} | {:.1f} |\n", p.name, p.runs, p.wall_seconds);
     m << "\n";
   }
+}
+
+std::string markdown(const Diagnosis& d) {
+  std::ostringstream m;
+  m << "# gen4d diagnose\n\n";
+  m << fmt::format("Deck `{}`, recording `{}`; forward model: {}.\n\n", d.deck, d.recording,
+                   d.model == "mpm" ? "the MPM solver (particles on a grid)"
+                                    : "the deck's voxels (hexahedra, trapezoidal rule)");
+  if (!d.effects_left_out.empty()) {
+    m << "Effects of the library this model does not represent, not tried:";
+    for (const auto& [name, why] : d.effects_left_out) m << fmt::format(" {} ({});", name, why);
+    m << "\n\n";
+  }
+  markdown_verdict(m, d);
+  markdown_fit(m, d);
+  markdown_where(m, d);
+  markdown_candidates(m, d);
   m << "Plots: residual_time.png, marker_error.png, trajectories.png"
     << (d.located ? ", sensitivity.png" : "") << "; data: fit.csv.\n";
   return m.str();

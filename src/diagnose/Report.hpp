@@ -9,6 +9,7 @@
 
 #include "core/Config.hpp"
 #include "diagnose/Fit.hpp"
+#include "diagnose/Tuning.hpp"
 
 namespace gen4d::diagnose {
 
@@ -115,7 +116,7 @@ struct RefinementCheck {
 };
 
 //! The most held-out chi-square a missing effect could explain: the calibrated baseline's
-//! less the noise's share (see run_diagnose, the misfit budget). When that is not more than
+//! less the noise's share (the refit stage's misfit budget). When that is not more than
 //! the discretisation check's error, no effect could be kept and none is refitted.
 struct MisfitBudget {
   bool evaluated = false;  //!< the noise carries enough of the misfit for the test to pay
@@ -150,14 +151,6 @@ struct IntervalBasis {
   //! Probes placed again nearer the threshold's crossing (each one profile point more).
   long profile_refines = 0;
 };
-
-//! The discretisation check's error above this many noise sd rms: the model's cells are
-//! coarse for the motion, and its parameters are effective values of them.
-constexpr double kEffectiveAboveNoise = 3.0;
-//! When the best passing refit leaves more held-out chi-square than this many times what the
-//! noise and the model's own cells account for (the values' count plus the discretisation
-//! check's chi-square), the next screened effects are refitted too (run_diagnose, 5c).
-constexpr double kDeeperRefitFactor = 10.0;
 
 struct Diagnosis {
   std::string deck, recording;

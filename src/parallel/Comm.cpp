@@ -73,6 +73,14 @@ void max_to_root(MPI_Comm comm, const float* local, float* out, int n, int root)
   MPI_Reduce(local, out, n, MPI_FLOAT, MPI_MAX, root, comm);
 }
 
+void sum_in_place(MPI_Comm comm, double* values, int n) {
+  MPI_Allreduce(MPI_IN_PLACE, values, n, MPI_DOUBLE, MPI_SUM, comm);
+}
+
+void barrier(MPI_Comm comm) {
+  MPI_Barrier(comm);
+}
+
 std::int64_t exclusive_prefix_sum(MPI_Comm comm, std::int64_t local) {
   std::int64_t below = 0;
   MPI_Exscan(&local, &below, 1, MPI_INT64_T, MPI_SUM, comm);

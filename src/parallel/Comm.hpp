@@ -21,6 +21,11 @@ double wall_seconds();
 void max_in_place(MPI_Comm comm, double* values, int n);
 void min_in_place(MPI_Comm comm, double* values, int n);
 void sum_in_place(MPI_Comm comm, long long* values, int n);
+//! Floating-point sums depend on MPI's order of the ranks: for timings and counts, never for
+//! results that must agree bit for bit across rank counts (parallel::Reducer sums exactly).
+void sum_in_place(MPI_Comm comm, double* values, int n);
+//! Waits until every rank has called it.
+void barrier(MPI_Comm comm);
 inline double max_of(MPI_Comm comm, double local) {
   max_in_place(comm, &local, 1);
   return local;

@@ -1,0 +1,185 @@
+//! Stage screen: every applicable effect's probes (small values of its parameters, in groups) run
+//! at the calibrated baseline, their residual directions projected off the baseline's and fitted
+//! jointly by linear least squares: the linearised chi-square drop of each (effect, variant) ranks
+//! the candidates and gives each refit its start.
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+
+#include "core/Log.hpp"
+#include "diagnose/Pipeline.hpp"
+
+namespace gen4d::diagnose {
+
+LsqProblem effect_problem(State& s, const Effect& e, const std::string& variant) {
+  const LsqProblem& pb = s.pb;
+  const EffectContext& ctx = s.ctx;
+  const auto specs = e.params(ctx, variant);
+  LsqProblem pr;
+  pr.lo = pb.lo;
+  pr.hi = pb.hi;
+  pr.step = pb.step;
+  for (const auto& sp : specs) {
+    pr.lo.push_back(to_z(sp, sp.lo));
+    pr.hi.push_back(to_z(sp, sp.hi));
+    pr.step.push_back(sp.log ? 1e-2 : 1e-2 * (to_z(sp, sp.hi) - to_z(sp, sp.lo)) / 10);
+  }
+  pr.physics = [&e, &ctx, &s, specs, variant](const std::vector<double>& z) {
+    Physics p = base_physics(s, z);
+    std::vector<double> nat;
+    for (std::size_t q = 0; q < specs.size(); ++q) nat.push_back(from_z(specs[q], z[2 + q]));
+    e.apply(variant, nat, ctx, p);
+    return p;
+  };
+  pr.mask = &s.obs.train;
+  return pr;
+}
+
+namespace {
+
+//! A probe: an effect variant at parameter values p, in a group of its probes, at a baseline.
+struct Probe {
+  const Effect* effect;
+  std::string variant;
+  std::size_t group;
+  std::vector<double> p;
+  std::size_t baseline = 0;  //!< 0: the calibrated baseline, else bases[baseline]
+};
+
+//! The probes of every applicable effect of the library; `bases` gets the baselines they ask for
+//! after the calibrated one. An effect may ask for probes at other baselines too
+//! (Effect::probe_baselines): their groups follow the calibrated baseline's, numbered on, and the
+//! best group counts.
+std::vector<Probe> build_probes(State& s, std::vector<Physics>& bases) {
+  const EffectContext& ctx = s.ctx;
+  const ForwardModel& model = *s.model;
+  std::vector<Probe> probes;
+  for (const Effect* e : s.library) {
+    if (!e->applicable(ctx)) continue;
+    for (const auto& var : e->variants(ctx)) {
+      if (!model.models(e->name(), var)) continue;
+      const auto groups = e->probe_groups(ctx, var);
+      std::size_t group = 0;
+      for (const auto& g : groups) {
+        for (const auto& p : g) probes.push_back({e, var, group, p});
+        ++group;
+      }
+      for (const Physics& b : e->probe_baselines(ctx, var)) {
+        bases.push_back(b);
+        for (const auto& g : groups) {
+          for (const auto& p : g) probes.push_back({e, var, group, p, bases.size() - 1});
+          ++group;
+        }
+      }
+    }
+  }
+  return probes;
+}
+
+//! The linearised chi-square drop of the group of probes [i, j) (least squares of r0 on their
+//! projected directions) and the start it points a scalable effect to.
+double group_gain(State& s, const std::vector<Probe>& probes,
+                  const std::vector<Prediction>& probe_preds, std::size_t i, std::size_t j,
+                  std::vector<double>& start) {
+  const Observations& obs = s.obs;
+  const EffectContext& ctx = s.ctx;
+  const Eigen::VectorXd& r0 = s.base.r;
+  // Group [i, j): least squares of r0 on the projected probe directions.
+  const Eigen::Index g = static_cast<Eigen::Index>(j - i);
+  Eigen::MatrixXd Dm(r0.size(), g);
+  bool ok = true;
+  for (std::size_t k = i; k < j; ++k) {
+    ok = ok && probe_preds[k].ok;
+    Dm.col(static_cast<Eigen::Index>(k - i)) =
+        project(s, weighted_residual(obs, probe_preds[k], obs.train) - r0);
+  }
+  double gain = 0;
+  start = probes[i].p;
+  if (ok) {
+    // Probe directions the recording barely responds to (pivots under 1e-3 of the largest:
+    // gravity's normal component on a block sliding on a frictionless floor) are left out of the
+    // combination: a coefficient fitted on them extrapolates far past what the probe measured (gz
+    // at +11.5 m/s^2, the block afloat, as the refit's start).
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(Dm);
+    qr.setThreshold(1e-3);
+    const Eigen::VectorXd c = qr.solve(-r0);
+    gain = r0.squaredNorm() - (r0 + Dm * c).squaredNorm();
+    const Effect* e = probes[i].effect;
+    if (e->scalable()) {
+      const auto nul = e->null_values(ctx, probes[i].variant);
+      start = nul;
+      for (std::size_t k = i; k < j; ++k)
+        for (std::size_t q = 0; q < nul.size(); ++q)
+          start[q] +=
+              std::max(0.0, c[static_cast<Eigen::Index>(k - i)]) * (probes[k].p[q] - nul[q]);
+      // A group whose signs all fall out keeps the probe magnitudes.
+      if (start == nul) start = probes[i].p;
+      if (e->name() == "gravity")  // signed: any direction
+        for (std::size_t q = 0; q < nul.size(); ++q) {
+          start[q] = nul[q];
+          for (std::size_t k = i; k < j; ++k)
+            start[q] += c[static_cast<Eigen::Index>(k - i)] * (probes[k].p[q] - nul[q]);
+        }
+    }
+  }
+  return gain;
+}
+
+}  // namespace
+
+void screen(State& s) {
+  const EffectContext& ctx = s.ctx;
+  std::vector<Physics> bases = {s.calibrated};
+  const std::vector<Probe> probes = build_probes(s, bases);
+  std::vector<Physics> batch;
+  for (const Probe& p : probes) {
+    Physics ph = bases[p.baseline];
+    p.effect->apply(p.variant, p.p, ctx, ph);
+    batch.push_back(ph);
+  }
+  const auto probe_preds = s.ev->run(batch);
+  std::vector<Candidate>& screened = s.screened;
+  for (std::size_t i = 0; i < probes.size();) {
+    std::size_t j = i;
+    while (j < probes.size() && probes[j].effect == probes[i].effect &&
+           probes[j].variant == probes[i].variant && probes[j].group == probes[i].group)
+      ++j;
+    std::vector<double> start;
+    const double gain = group_gain(s, probes, probe_preds, i, j, start);
+    // Keep the best group per (effect, variant).
+    auto it = std::find_if(screened.begin(), screened.end(), [&](const Candidate& c) {
+      return c.effect == probes[i].effect->name() && c.variant == probes[i].variant;
+    });
+    if (it == screened.end()) {
+      Candidate c;
+      c.effect = probes[i].effect->name();
+      c.variant = probes[i].variant;
+      c.screen_gain = -1;
+      screened.push_back(c);
+      it = screened.end() - 1;
+    }
+    if (gain > it->screen_gain) {
+      it->screen_gain = gain;
+      it->z.clear();
+      it->base_start.clear();
+      if (probes[i].baseline != 0) {
+        const Physics& b = bases[probes[i].baseline];
+        it->base_start = {std::log(b.youngs_modulus), b.poisson_ratio};
+      }
+      const auto specs = probes[i].effect->params(ctx, probes[i].variant);
+      for (std::size_t q = 0; q < specs.size(); ++q)
+        it->z.push_back(to_z(specs[q], std::clamp(start[q], specs[q].lo, specs[q].hi)));
+    }
+    i = j;
+  }
+  std::sort(screened.begin(), screened.end(),
+            [](const Candidate& a, const Candidate& b) { return a.screen_gain > b.screen_gain; });
+  for (const auto& c : screened)
+    log::info("  screen {:<16} {:<12} linearised chi2 drop {:.4g} ({:.1f} %)", c.effect, c.variant,
+              c.screen_gain, 100 * c.screen_gain / s.chi2_0);
+  s.phase_done("screening");
+}
+
+}  // namespace gen4d::diagnose
