@@ -244,8 +244,9 @@ TEST(DeckCurves, BadCurvesAreRefusedByKey) {
   // Under the MPM a curve is for [[boundary]] conditions; one that none names is refused.
   e = error_of(kMpm + "[[curve]]\nname = \"ramp\"\ntime = [0]\nfactor = [1]\n");
   EXPECT_NE(e.find("no load names curve 'ramp'"), std::string::npos) << e;
-  e = error_of(kMpm + "[[boundary]]\ntype = \"surface_collider\"\npoint = [0, 0, 0]\n"
-                      "normal = [0, 0, 1]\ncurve = \"ramp\"\n");
+  e = error_of(kMpm +
+               "[[boundary]]\ntype = \"surface_collider\"\npoint = [0, 0, 0]\n"
+               "normal = [0, 0, 1]\ncurve = \"ramp\"\n");
   EXPECT_NE(e.find("curve"), std::string::npos) << e;  // colliders take no curve
 }
 
