@@ -196,8 +196,8 @@ void assign_material_slots(const Config& cfg, const MaterialSet& materials,
 }
 
 MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm_(comm), cfg_(cfg) {
-  MPI_Comm_rank(comm, &rank_);
-  MPI_Comm_size(comm, &size_);
+  rank_ = parallel::rank(comm);
+  size_ = parallel::size(comm);
   const MaterialSet materials = make_deck_materials(cfg_);
   // Splat parts become one particle per Gaussian; the others are seeded on the lattice.
   std::vector<GeometryConfig> solid_parts;
