@@ -198,17 +198,10 @@ Trace MpmModel::run(const Physics& ph, const std::vector<ChannelRequest>& req) c
     mp.values["density"] = ph.density;
     std::shared_ptr<const mpm::Material> material = mpm::make_material(mp);
 
-    mpm::SolverOptions opt;
-    opt.gravity = ph.gravity;
+    mpm::SolverOptions opt = mpm::solver_options(cfg_);
+    opt.gravity = ph.gravity;  // the physics under test, fixed substeps
     opt.max_dt = ph.dt;
     opt.adaptive = false;
-    opt.cfl = cfg_.mpm.cfl;
-    opt.wave_cfl = cfg_.mpm.wave_cfl;
-    opt.remove_outside = cfg_.mpm.out_of_domain == "remove";
-    opt.boundary_layers = cfg_.mpm.boundary_layers;
-    opt.max_cells_per_substep = cfg_.mpm.max_cells_per_substep;
-    opt.rpic_damping = cfg_.mpm.rpic_damping;
-    opt.grid_velocity_scale = cfg_.mpm.grid_velocity_scale;
     opt.damping = ph.rayleigh_alpha;
     // The effects that act on the particles' stresses (see the header), per particle id; the
     // arrays are filled once the particles are seeded.

@@ -235,17 +235,7 @@ MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm
     renderer_->frame_object(splats, {other.lo[0], other.lo[1], other.lo[2]},
                             {other.hi[0], other.hi[1], other.hi[2]});
   }
-  SolverOptions opt;
-  opt.gravity = cfg_.gravity;
-  opt.max_dt = cfg_.dt;
-  opt.adaptive = cfg_.mpm.substep == "adaptive";
-  opt.cfl = cfg_.mpm.cfl;
-  opt.wave_cfl = cfg_.mpm.wave_cfl;
-  opt.remove_outside = cfg_.mpm.out_of_domain == "remove";
-  opt.boundary_layers = cfg_.mpm.boundary_layers;
-  opt.max_cells_per_substep = cfg_.mpm.max_cells_per_substep;
-  opt.rpic_damping = cfg_.mpm.rpic_damping;
-  opt.grid_velocity_scale = cfg_.mpm.grid_velocity_scale;
+  const SolverOptions opt = solver_options(cfg_);
   solver_ = std::make_unique<Solver>(comm_, spec_, materials, opt, boundary_conditions(cfg_));
   const double limit = spec_.dx / std::max(materials.wave_speed(), 1e-300);
   if (rank_ == 0 && !opt.adaptive && cfg_.dt > limit)

@@ -35,6 +35,21 @@ inline bool active(const BoundaryConfig& b, double t) {
 
 }  // namespace
 
+SolverOptions solver_options(const Config& cfg) {
+  SolverOptions opt;
+  opt.gravity = cfg.gravity;
+  opt.max_dt = cfg.dt;
+  opt.adaptive = cfg.mpm.substep == "adaptive";
+  opt.cfl = cfg.mpm.cfl;
+  opt.wave_cfl = cfg.mpm.wave_cfl;
+  opt.remove_outside = cfg.mpm.out_of_domain == "remove";
+  opt.boundary_layers = cfg.mpm.boundary_layers;
+  opt.max_cells_per_substep = cfg.mpm.max_cells_per_substep;
+  opt.rpic_damping = cfg.mpm.rpic_damping;
+  opt.grid_velocity_scale = cfg.mpm.grid_velocity_scale;
+  return opt;
+}
+
 Solver::Solver(MPI_Comm comm, const GridSpec& grid, MaterialSet materials,
                const SolverOptions& options, std::vector<BoundaryConfig> boundaries)
     : comm_(comm),

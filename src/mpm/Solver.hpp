@@ -72,6 +72,10 @@ struct SolverOptions {
   bool allow_device = true;
 };
 
+//! The deck's solver options ([simulation] gravity and dt as the largest substep, [mpm]):
+//! the one translation of a Config every MPM caller starts from.
+SolverOptions solver_options(const Config& cfg);
+
 //! A `surface_collider` boundary condition (the plane through `point` with `normal` towards the
 //! allowed side), active for the whole run.
 inline BoundaryConfig surface_collider(const std::string& surface, const Vec3d& point,
