@@ -7,28 +7,12 @@ set -uo pipefail
 gen4d=$1 mpiexec=$2 scratch=$3
 rm -rf "$scratch" && mkdir -p "$scratch" && cd "$scratch" || exit 1
 fail() { echo "FAIL: $*"; exit 1; }
-cat > bar.toml <<'DECK'
-[simulation]
-dt = 0.01
-end_time = 0.06
-[domain]
-voxel_size = 0.05
-[[geometry]]
-type = "box"
-lo = [0, 0, 0]
-hi = [0.2, 0.05, 0.05]
-[material]
-youngs_modulus = 1e5
-poisson_ratio = 0.3
-density = 1000
-[[fixed]]
-lo = [-1, -1, -1]
-hi = [0.01, 1, 1]
-[output]
-checkpoint_every = 2
-checkpoint_keep = 10
-surface = "ply"
-DECK
+source "$(dirname "${BASH_SOURCE[0]}")/cli_common.sh"
+{
+  jelly_deck 0.01 0.06 0.05 1e5 "$(box "[0, 0, 0]" "[0.2, 0.05, 0.05]")"
+  printf '[[fixed]]\nlo = [-1, -1, -1]\nhi = [0.01, 1, 1]\n'
+  printf '[output]\ncheckpoint_every = 2\ncheckpoint_keep = 10\nsurface = "ply"\n'
+} > bar.toml
 run() { "$mpiexec" -n 2 "$gen4d" run "$@"; }
 run bar.toml --out out > run1.log 2>&1 || { cat run1.log; fail "first run"; }
 [[ -f out/checkpoint_00000006.h5 && -f out/surface/surface_000006.ply ]] || fail "first run's files"
@@ -48,26 +32,10 @@ for f in out/notes.txt out/checkpoint_old.h5 out/surface/surface_backup.ply; do
 done
 echo "ok   overwrite"
 
-cat > drop.toml <<'DECK'
-[simulation]
-dt = 0.01
-end_time = 0.2
-[solver]
-method = "mpm"
-[domain]
-voxel_size = 0.05
-[[geometry]]
-type = "box"
-lo = [0, 0, 0.1]
-hi = [0.1, 0.1, 0.2]
-[material]
-model = "fixed_corotated"
-youngs_modulus = 2e5
-poisson_ratio = 0.3
-density = 1000
-[output]
-frame_interval = 0.05
-DECK
+{
+  jelly_deck 0.01 0.2 0.05 2e5 "$(box "[0, 0, 0.1]" "[0.1, 0.1, 0.2]")" fixed_corotated
+  printf '[output]\nframe_interval = 0.05\n'
+} > drop.toml
 run drop.toml --out drop > drop.log 2>&1 || { cat drop.log; fail "MPM drop"; }
 [[ $(grep -c "particle(s) touch the grid walls" drop.log) -eq 1 ]] || { cat drop.log; fail "wall warning (once)"; }
 grep -q "z-: [1-9]" drop.log || { cat drop.log; fail "wall named"; }

@@ -6,19 +6,8 @@ gen4d="$1"; mpiexec="$2"; dir="$3"
 rm -rf "$dir"; mkdir -p "$dir/out"
 echo "precious" > "$dir/out/frames.h5"
 fails=0; passes=0
-good='[simulation]
-dt = 0.01
-end_time = 0.02
-[domain]
-voxel_size = 0.05
-[[geometry]]
-type = "box"
-lo = [0, 0, 0]
-hi = [0.2, 0.1, 0.1]
-[material]
-youngs_modulus = 1e5
-poisson_ratio = 0.3
-density = 1000'
+source "$(dirname "${BASH_SOURCE[0]}")/cli_common.sh"
+good=$(jelly_deck 0.01 0.02 0.05 1e5 "$(box "[0, 0, 0]" "[0.2, 0.1, 0.1]")")
 expect_fail() {  # name, expected message fragment, command...
   local name="$1" frag="$2"; shift 2
   local err; err=$("$@" 2>&1 >/dev/null); local code=$?

@@ -7,26 +7,12 @@ set -u
 gen4d="$1"; mpiexec="$2"; dir="$3"
 rm -rf "$dir"; mkdir -p "$dir"
 donut="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/inputs/splats/donut.ply"
-cat > "$dir/noview.toml" <<TOML
-[simulation]
-dt = 2e-3
-end_time = 0.04
-gravity = [0.0, 0.0, -9.81]
-[solver]
-method = "mpm"
-[domain]
-voxel_size = 0.02
-[[geometry]]
-type = "splats"
-file = "$donut"
-[material]
-model = "fixed_corotated"
-youngs_modulus = 2e4
-poisson_ratio = 0.3
-density = 1000
-[output]
-frame_interval = 0.02
-TOML
+source "$(dirname "${BASH_SOURCE[0]}")/cli_common.sh"
+{
+  jelly_deck 2e-3 0.04 0.02 2e4 "$(printf 'type = "splats"\nfile = "%s"' "$donut")" fixed_corotated \
+    "gravity = [0.0, 0.0, -9.81]"
+  printf '[output]\nframe_interval = 0.02\n'
+} > "$dir/noview.toml"
 fail() { echo "FAIL $*"; exit 1; }
 sets=(--set simulation.end_time=0.06 --set output.frame_interval=0.03
       --set output.progress_interval=100 --set render.width=96 --set render.height=72
@@ -74,23 +60,8 @@ cmp -s "$dir/np1/png/$last" "$dir/cut/png/$last" || fail "restarted $last differ
 # Bad splat files: exit 2, the file named, no output folder.
 printf 'ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nend_header\n' \
   > "$dir/bad.ply"
-cat > "$dir/bad.toml" <<TOML
-[simulation]
-dt = 1e-3
-end_time = 0.01
-[solver]
-method = "mpm"
-[domain]
-voxel_size = 0.02
-[[geometry]]
-type = "splats"
-file = "bad.ply"
-[material]
-model = "fixed_corotated"
-youngs_modulus = 1e4
-poisson_ratio = 0.3
-density = 1000
-TOML
+jelly_deck 1e-3 0.01 0.02 1e4 'type = "splats"
+file = "bad.ply"' fixed_corotated > "$dir/bad.toml"
 err=$("$gen4d" run "$dir/bad.toml" --out "$dir/bad" 2>&1 >/dev/null); code=$?
 [[ $code -eq 2 && "$err" == *"bad.ply"* && ! -e "$dir/bad" ]] ||
   fail "bad splat file: exit $code, $err"

@@ -20,3 +20,5 @@ gen4d_test(hencky_j2 SOURCES test_hencky_j2.cpp LIBS gen4d_diagnose RANKS 1)
 # at any rank count: DiagnoseMpmModel.RanksShareRunsBitForBit).
 gen4d_test(diagnose_mpm SOURCES test_diagnose_mpm.cpp LIBS gen4d_diagnose RANKS 1 2
            LARGEST_RANKS_ONLY DiagnoseMpmEndToEnd.*)
+# An effect defined in the test (one file) added to the library, recorded and diagnosed.
+gen4d_test(diagnose_toy_effect SOURCES test_diagnose_toy_effect.cpp LIBS gen4d_diagnose RANKS 1)

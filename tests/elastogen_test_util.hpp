@@ -3,13 +3,18 @@
 
 #include <mpi.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
 #include "core/Config.hpp"
 #include "core/Deck.hpp"
 #include "elastogen/Simulation.hpp"
+#include "mpi_test_util.hpp"
 
 namespace gen4d::test {
 
@@ -47,26 +52,33 @@ inline std::vector<double> gather_positions(elastogen::Simulation& sim, bool vel
   return out;
 }
 
-inline int world_rank() {
-  int r = 0;
-  MPI_Comm_rank(MPI_COMM_WORLD, &r);
+//! The largest difference between two gathered position fields, beside the motion scale: the
+//! largest velocity component of `v` times `time`.
+struct Agreement {
+  double diff = 0, motion = 0;
+};
+inline Agreement agreement(const std::vector<double>& a, const std::vector<double>& b,
+                           const std::vector<double>& v, double time) {
+  Agreement r;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    r.diff = std::max(r.diff, std::fabs(a[i] - b[i]));
+    r.motion = std::max(r.motion, std::fabs(v[i]) * time);
+  }
   return r;
 }
 
-//! An empty scratch folder per test name and rank count under the build tree (collective).
-inline std::string scratch_dir(const std::string& name) {
-  namespace fs = std::filesystem;
-  int size = 1;
-  MPI_Comm_size(MPI_COMM_WORLD, &size);
-  const std::string d =
-      (fs::path(GEN4D_BINARY_DIR) / "tests" / "scratch" / (name + "_np" + std::to_string(size)))
-          .string();
-  if (world_rank() == 0) {
-    fs::remove_all(d);
-    fs::create_directories(d);
-  }
-  MPI_Barrier(MPI_COMM_WORLD);
-  return d;
+//! `map` applied to the rest position of every ghosted node of the rank.
+template <class Map>
+std::vector<double> node_field(const elastogen::VoxelSystem& sys, Map map) {
+  const auto& G = sys.ghosted();
+  std::vector<double> x(3 * G.size());
+  for (long k = G.start[2]; k < G.start[2] + G.count[2]; ++k)
+    for (long j = G.start[1]; j < G.start[1] + G.count[1]; ++j)
+      for (long i = G.start[0]; i < G.start[0] + G.count[0]; ++i) {
+        const auto q = map(sys.rest_position(i, j, k));
+        for (int d = 0; d < 3; ++d) x[3 * G.index(i, j, k) + d] = q[d];
+      }
+  return x;
 }
 
 }  // namespace gen4d::test

@@ -5,14 +5,8 @@ gen4d_test(render SOURCES test_render.cpp LIBS gen4d_gaussians RANKS 1 2 4)
 gen4d_test(render_gpu SOURCES test_render_gpu.cpp LIBS gen4d_gaussians RANKS 1 2 LABELS gpu)
 # gen4d render end to end on the donut (../shared/data/splats/donut): views from a cameras.json
 # and an orbit at 1 and 2 ranks (identical PNGs), and bad inputs (exit 2, nothing written).
-if(TARGET gen4d)
-  add_test(NAME cli_render
-           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/cli_render.sh $<TARGET_FILE:gen4d>
-                   ${MPIEXEC_EXECUTABLE} ${CMAKE_CURRENT_BINARY_DIR}/scratch/cli_render
-                   ${GEN4D_SHARED_DIR}/data/splats/donut/point_cloud.ply)
-  set_tests_properties(cli_render PROPERTIES ENVIRONMENT "${GEN4D_TEST_ENV}" PROCESSORS 2
-                       TIMEOUT 300)
-endif()
+gen4d_cli_test(cli_render TIMEOUT 300
+               ARGS ${GEN4D_SHARED_DIR}/data/splats/donut/point_cloud.ply)
 # Benchmark: must run and print its JSON at 1 and 2 ranks (small synthetic case).
 gen4d_driver_twin(bench_render_quick bench_render "1;2"
                   ARGS --splats 20000 --frames 1

@@ -17,6 +17,7 @@
 
 #include <cmath>
 
+#include "deck_test_util.hpp"
 #include "elastogen_test_util.hpp"
 
 using namespace gen4d;
@@ -25,40 +26,16 @@ namespace {
 Config cantilever_deck(const std::string& variant) {
   const bool newton = variant == "newton";
   const std::string relaxation = newton ? "cg" : variant;
-  const std::string deck = R"(
-[simulation]
-dt = 1.0e4
-end_time = 1.0e4
-gravity = [0.0, 0.0, 0.0]
-[domain]
-voxel_size = 0.01
-padding = 0
-[[geometry]]
-type = "box"
-lo = [0.0, 0.0, 0.0]
-hi = [0.4, 0.04, 0.04]
-[material]
-target = "analytic"
-youngs_modulus = 1.0e6
-poisson_ratio = 0.0
-density = 1000.0
-[solver]
-relaxation = ")" + relaxation +
-                           R"("
-max_sweeps = 20000
-inner_tolerance = 1e-4
-max_outer = 20000
-max_extra_outer = 20000
-outer_tolerance = 1e-6
-accuracy_tolerance = 1e-3
-[[fixed]]
-lo = [-1.0, -1.0, -1.0]
-hi = [0.001, 1.0, 1.0]
-[[force]]
-lo = [0.399, -1.0, -1.0]
-hi = [1.0, 1.0, 1.0]
-force = [0.0, 0.0, -0.01]
-)";
+  BeamDeck beam = test::slender_beam();
+  beam.dt = beam.end_time = 1.0e4;
+  beam.solver.set("relaxation", relaxation)
+      .set("max_sweeps", 20000)
+      .set("inner_tolerance", 1e-4)
+      .set("max_outer", 20000)
+      .set("max_extra_outer", 20000)
+      .set("outer_tolerance", 1e-6)
+      .set("accuracy_tolerance", 1e-3);
+  const std::string deck = test::with_tip_load(beam.text());
   return parse_deck(deck, "<cantilever>", ".",
                     {std::string("solver.method=") + (newton ? "newton" : "elastogen")});
 }

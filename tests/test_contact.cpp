@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "deck_test_util.hpp"
 #include "elastogen_test_util.hpp"
 
 using namespace gen4d;
@@ -12,26 +13,11 @@ namespace {
 
 //! A w x w x hgt block of side voxels h (padding 0: every grid node is an object node).
 std::string block_deck(double w, double hgt, double z0, double h, double dt, double end_time) {
-  char buf[1024];
-  std::snprintf(buf, sizeof buf, R"(
-[simulation]
-dt = %.17g
-end_time = %.17g
-gravity = [0.0, 0.0, -9.81]
-[domain]
-voxel_size = %.17g
-padding = 0
-[[geometry]]
-type = "box"
-lo = [0.0, 0.0, %.17g]
-hi = [%.17g, %.17g, %.17g]
-[material]
-youngs_modulus = 1.0e5
-poisson_ratio = 0.0
-density = 1000.0
-)",
-                dt, end_time, h, z0, w, w, z0 + hgt);
-  return buf;
+  return test::TestDeck()
+      .simulation(dt, end_time, {{"gravity", "[0, 0, -9.81]"}})
+      .unpadded(h)
+      .box({0, 0, z0}, {w, w, z0 + hgt})
+      .material(1.0e5, 0.0, 1000);
 }
 
 Config deck(const std::string& text, const std::vector<std::string>& sets) {
@@ -234,29 +220,13 @@ friction = 0.3
 namespace {
 //! A clamped 0.2 x 0.04 x 0.04 m beam (10 x 2 x 2 voxels), no gravity, tight solves.
 std::string beam_deck() {
-  return R"(
-[simulation]
-dt = 0.01
-end_time = 0.1
-gravity = [0.0, 0.0, 0.0]
-[domain]
-voxel_size = 0.02
-padding = 0
-[[geometry]]
-type = "box"
-lo = [0.0, 0.0, 0.0]
-hi = [0.2, 0.04, 0.04]
-[material]
-youngs_modulus = 1.0e5
-poisson_ratio = 0.3
-density = 1000.0
-[solver]
-accuracy_tolerance = 1e-6
-max_extra_outer = 1000
-[[fixed]]
-lo = [-1.0, -1.0, -1.0]
-hi = [0.001, 1.0, 1.0]
-)";
+  return test::TestDeck()
+      .simulation(0.01, 0.1, {test::TestDeck::no_gravity()})
+      .unpadded(0.02)
+      .box({0, 0, 0}, {0.2, 0.04, 0.04})
+      .material(1.0e5, 0.3, 1000)
+      .table("solver", {{"accuracy_tolerance", "1e-6"}, {"max_extra_outer", "1000"}})
+      .clamp();
 }
 
 double tip_z(elastogen::Simulation& sim) {
@@ -342,18 +312,10 @@ TEST(Traction, EndFaceTractionBendsACantileverLikeTheEquivalentForce) {
   // a [[force]] on the end node layer. On that layer the lumped masses are in proportion to the
   // adjoining end faces (1 : 2 : 4 at corners, edges, inside), so the nodal loads agree, and
   // so must the motion (measured: identical to the last bit).
-  const std::string traction = R"(
-[[traction]]
-lo = [0.195, -1.0, -1.0]
-hi = [1.0, 1.0, 1.0]
-traction = [0.0, 0.0, -125.0]
-)";
-  const std::string force = R"(
-[[force]]
-lo = [0.195, -1.0, -1.0]
-hi = [1.0, 1.0, 1.0]
-force = [0.0, 0.0, -0.2]
-)";
+  const std::string traction = test::TestDeck().region("traction", {0.195, -1, -1}, {1, 1, 1},
+                                                       {{"traction", "[0, 0, -125]"}});
+  const std::string force =
+      test::TestDeck().region("force", {0.195, -1, -1}, {1, 1, 1}, {{"force", "[0, 0, -0.2]"}});
   elastogen::Simulation a(MPI_COMM_WORLD, deck(beam_deck() + traction, {})),
       b(MPI_COMM_WORLD, deck(beam_deck() + force, {}));
   for (int s = 0; s < 5; ++s) {
@@ -373,38 +335,21 @@ namespace {
 // pushed towards the wall by a traction on its uphill face. Default subspace start: for an
 // unclamped body in free fall its projections cancel to ~1e-31, which the exact global sums
 // (parallel::ExactSum) must still reproduce at any rank count.
-const char* kScene = R"(
-[simulation]
-dt = 0.005
-end_time = 0.15
-gravity = [0.0, 0.0, -9.81]
-[domain]
-voxel_size = 0.02
-padding = 0
-[[geometry]]
-type = "box"
-lo = [0.0, 0.0, 0.0]
-hi = [0.12, 0.08, 0.04]
-[material]
-youngs_modulus = 1.0e5
-poisson_ratio = 0.3
-density = 1000.0
-[[collider]]
-type = "plane"
-point = [0.0, 0.0, -0.005]
-normal = [0.2, 0.1, 1.0]
-friction = 0.4
-[[collider]]
-type = "box"
-lo = [0.13, -1.0, -1.0]
-hi = [1.0, 1.0, 1.0]
-friction = 0.2
-[[traction]]
-lo = [-1.0, -1.0, -1.0]
-hi = [0.005, 1.0, 1.0]
-traction = [200.0, 0.0, 0.0]
-end = 0.1
-)";
+const std::string kScene = test::TestDeck()
+                               .simulation(0.005, 0.15, {{"gravity", "[0, 0, -9.81]"}})
+                               .unpadded(0.02)
+                               .box({0, 0, 0}, {0.12, 0.08, 0.04})
+                               .material(1.0e5, 0.3, 1000)
+                               .table("[collider]", {{"type", test::quoted("plane")},
+                                                     {"point", "[0, 0, -0.005]"},
+                                                     {"normal", "[0.2, 0.1, 1]"},
+                                                     {"friction", "0.4"}})
+                               .table("[collider]", {{"type", test::quoted("box")},
+                                                     {"lo", "[0.13, -1, -1]"},
+                                                     {"hi", "[1, 1, 1]"},
+                                                     {"friction", "0.2"}})
+                               .region("traction", {-1, -1, -1}, {0.005, 1, 1},
+                                       {{"traction", "[200, 0, 0]"}, {"end", "0.1"}});
 }  // namespace
 
 TEST(Contact, SceneIsBitIdenticalAcrossRankCounts) {
@@ -456,11 +401,7 @@ TEST(Contact, MatchesTheNewtonReference) {
   const auto xe = test::gather_positions(e), xn = test::gather_positions(n);
   const auto ve = test::gather_positions(e, true);
   if (test::world_rank() != 0) return;
-  double diff = 0, motion_scale = 0;
-  for (std::size_t i = 0; i < xe.size(); ++i) {
-    diff = std::max(diff, std::fabs(xe[i] - xn[i]));
-    motion_scale = std::max(motion_scale, std::fabs(ve[i]) * steps * ce.dt);
-  }
+  const auto [diff, motion_scale] = test::agreement(xe, xn, ve, steps * ce.dt);
   std::printf(
       "[ contact elastogen vs newton ] %ld contacts, max difference %.3e m, motion %.3e m\n",
       contacts, diff, motion_scale);

@@ -11,44 +11,29 @@
 #include "core/Deck.hpp"
 #include "core/DeckUse.hpp"
 #include "core/Error.hpp"
+#include "deck_test_util.hpp"
 #include "geometry/Shape.hpp"
 #include "mpm/MpmSimulation.hpp"
 
 namespace gen4d::test {
 namespace {
 
-const std::string kVoxel = R"([simulation]
-dt = 0.01
-end_time = 0.1
-[domain]
-voxel_size = 0.1
-[[geometry]]
-type = "box"
-lo = [0, 0, 0]
-hi = [1, 0.2, 0.2]
-[material]
-youngs_modulus = 1e5
-poisson_ratio = 0.3
-density = 1000
-)";
+//! [material] of both decks, written as the tests below edit it.
+const Keys kJelly = {{"youngs_modulus", "1e5"}, {"poisson_ratio", "0.3"}, {"density", "1000"}};
 
-const std::string kMpm = R"([simulation]
-dt = 0.01
-end_time = 0.1
-[solver]
-method = "mpm"
-[domain]
-voxel_size = 0.1
-[[geometry]]
-type = "box"
-lo = [0, 0, 0]
-hi = [0.4, 0.4, 0.4]
-[material]
-model = "fixed_corotated"
-youngs_modulus = 1e5
-poisson_ratio = 0.3
-density = 1000
-)";
+const std::string kVoxel = TestDeck()
+                               .simulation(0.01, 0.1)
+                               .domain(0.1)
+                               .box({0, 0, 0}, {1, 0.2, 0.2})
+                               .table("material", kJelly);
+
+const std::string kMpm = TestDeck()
+                             .simulation(0.01, 0.1)
+                             .mpm()
+                             .domain(0.1)
+                             .box({0, 0, 0}, {0.4, 0.4, 0.4})
+                             .material(1e5, 0.3, 1000, {{"model", quoted("fixed_corotated")}})
+                             .str();
 
 Config parse(const std::string& text, const std::vector<std::string>& sets = {}) {
   return parse_deck(text, "deck.toml", ".", sets);
@@ -80,6 +65,16 @@ int line_of(const std::string& text, const std::string& needle) {
              : 1 + static_cast<int>(std::count(text.begin(), text.begin() + pos, '\n'));
 }
 
+//! Expects parsing `text` to fail with "deck.toml:LINE: " + `message`, LINE that of the first
+//! `needle` in `text`.
+void expect_error_at(const std::string& text, const std::string& needle,
+                     const std::string& message) {
+  const std::string e = error_of(text);
+  EXPECT_NE(e.find(fmt::format("deck.toml:{}: {}", line_of(text, needle), message)),
+            std::string::npos)
+      << e;
+}
+
 //! `deck` with its box replaced by the cylinder of axis [0, 0, 0] - `b`, radius 0.3.
 std::string with_cylinder(std::string deck, const std::string& b = "[1, 0.5, 0.25]") {
   const auto from = deck.find("type = \"box\"");
@@ -93,11 +88,8 @@ TEST(DeckUse, VoxelSectionsUnderTheMpmAreRefusedAtTheirLine) {
     std::string deck = kMpm + "[[" + table + "]]\nlo = [0, 0, 0]\nhi = [1, 1, 1]\n";
     if (table == "force") deck += "force = [0, 0, 1]\n";
     if (table == "traction") deck += "pressure = 10\n";
-    const std::string e = error_of(deck);
-    EXPECT_NE(e.find(fmt::format("deck.toml:{}: [[{}]] does not apply to solver.method = \"mpm\"",
-                                 line_of(deck, "[[" + table), table)),
-              std::string::npos)
-        << e;
+    expect_error_at(deck, "[[" + table,
+                    fmt::format("[[{}]] does not apply to solver.method = \"mpm\"", table));
   }
   // The same, given with --set: the message points at the override.
   const std::string e = error_of(kMpm, {"fixed.0.lo=[0,0,0]", "fixed.0.hi=[1,1,1]"});
@@ -106,13 +98,9 @@ TEST(DeckUse, VoxelSectionsUnderTheMpmAreRefusedAtTheirLine) {
 
 TEST(DeckUse, KeysOfTheOtherSolverAreRefused) {
   const std::string surface = kMpm + "[output]\nsurface = \"ply\"\n";
-  std::string e = error_of(surface);
-  EXPECT_NE(e.find(fmt::format("deck.toml:{}: key 'output.surface' does not apply to "
-                               "solver.method = \"mpm\"",
-                               line_of(surface, "surface ="))),
-            std::string::npos)
-      << e;
-  e = error_of(kMpm + "[solver.extra]\n");  // not a key: the schema's own error
+  expect_error_at(surface,
+                  "surface =", "key 'output.surface' does not apply to solver.method = \"mpm\"");
+  std::string e = error_of(kMpm + "[solver.extra]\n");  // not a key: the schema's own error
   EXPECT_FALSE(e.empty());
   e = error_of(kVoxel + "[output]\nparticles = \"ply\"\n");
   EXPECT_NE(e.find("key 'output.particles' does not apply to solver.method = \"elastogen\""),
@@ -254,27 +242,22 @@ TEST(DeckPhysics, ImpossibleMaterialsAreRefusedByKey) {
   const auto replace = [](std::string text, const std::string& from, const std::string& to) {
     return text.replace(text.find(from), from.size(), to);
   };
-  EXPECT_NE(error_of(replace(kVoxel, "density = 1000", "density = 0"))
-                .find("key 'material.density': must be > 0"),
-            std::string::npos);
-  EXPECT_NE(error_of(replace(kVoxel, "youngs_modulus = 1e5", "youngs_modulus = -1"))
-                .find("key 'material.youngs_modulus': must be > 0"),
-            std::string::npos);
-  EXPECT_NE(error_of(replace(kVoxel, "poisson_ratio = 0.3", "poisson_ratio = 0.5"))
-                .find("key 'material.poisson_ratio': must be in (-1, 0.5)"),
-            std::string::npos);
-  EXPECT_NE(error_of(replace(kVoxel, "poisson_ratio = 0.3", "poisson_ratio = -1"))
-                .find("key 'material.poisson_ratio'"),
-            std::string::npos);
+  struct Case {
+    std::string from, to, message;
+  };
+  for (const Case& c :
+       {Case{"density = 1000", "density = 0", "key 'material.density': must be > 0"},
+        Case{"youngs_modulus = 1e5", "youngs_modulus = -1",
+             "key 'material.youngs_modulus': must be > 0"},
+        Case{"poisson_ratio = 0.3", "poisson_ratio = 0.5",
+             "key 'material.poisson_ratio': must be in (-1, 0.5)"},
+        Case{"poisson_ratio = 0.3", "poisson_ratio = -1", "key 'material.poisson_ratio'"}})
+    EXPECT_NE(error_of(replace(kVoxel, c.from, c.to)).find(c.message), std::string::npos) << c.to;
   const std::string hot =
       replace(kMpm, "\"fixed_corotated\"",
               "\"von_mises\"\njc_A = 3e8\nmelt_temperature = 1700\ninitial_temperature = 1800");
-  std::string e = error_of(hot);
-  EXPECT_NE(e.find(fmt::format("deck.toml:{}: key 'material.initial_temperature': must be below "
-                               "melt_temperature (1700 K",
-                               line_of(hot, "initial_temperature"))),
-            std::string::npos)
-      << e;
+  expect_error_at(hot, "initial_temperature",
+                  "key 'material.initial_temperature': must be below melt_temperature (1700 K");
   EXPECT_EQ(error_of(replace(hot, "initial_temperature = 1800", "initial_temperature = 1600")), "");
   // Yield stress and cohesion must be >= 0: the MPM registry refuses them, naming the key.
   const auto material_error = [&](const std::string& text) {
@@ -285,7 +268,8 @@ TEST(DeckPhysics, ImpossibleMaterialsAreRefusedByKey) {
     }
     return std::string();
   };
-  e = material_error(replace(kMpm, "\"fixed_corotated\"", "\"von_mises\"\nyield_stress = -5"));
+  std::string e =
+      material_error(replace(kMpm, "\"fixed_corotated\"", "\"von_mises\"\nyield_stress = -5"));
   EXPECT_NE(e.find("material.yield_stress"), std::string::npos) << e;
   e = material_error(
       replace(kMpm, "fixed_corotated\"", "drucker_prager\"\nfriction_angle = 30\ncohesion = -1"));

@@ -10,6 +10,7 @@
 
 #include "core/Deck.hpp"
 #include "elastogen/Simulation.hpp"
+#include "deck_test_util.hpp"
 #include "elastogen_test_util.hpp"
 #include "mpm/MpmSimulation.hpp"
 #include "mpm_test_util.hpp"
@@ -19,31 +20,17 @@ namespace {
 
 //! A free jelly bar (no supports, no gravity, every node solid) pushed along z by a force on
 //! all of it, ramped 0 -> 1 over 0.1 s by a [[curve]].
-const std::string kRamp = R"([simulation]
-dt = 0.01
-end_time = 0.2
-gravity = [0, 0, 0]
-[domain]
-voxel_size = 0.05
-padding = 0
-[[geometry]]
-type = "box"
-lo = [0, 0, 0]
-hi = [0.2, 0.1, 0.1]
-[material]
-youngs_modulus = 1e5
-poisson_ratio = 0.3
-density = 1000
-[[curve]]
-name = "ramp"
-time = [0, 0.1]
-factor = [0, 1]
-[[force]]
-lo = [-1, -1, -1]
-hi = [1, 1, 1]
-force = [0, 0, 3]
-curve = "ramp"
-)";
+const std::string kRamp =
+    TestDeck()
+        .simulation(0.01, 0.2, {TestDeck::no_gravity()})
+        .unpadded(0.05)
+        .box({0, 0, 0}, {0.2, 0.1, 0.1})
+        .material(1e5, 0.3, 1000)
+        .table("[curve]", {{"name", quoted("ramp")}, {"time", "[0, 0.1]"}, {"factor", "[0, 1]"}})
+        .table("[force]", {{"lo", "[-1, -1, -1]"},
+                           {"hi", "[1, 1, 1]"},
+                           {"force", "[0, 0, 3]"},
+                           {"curve", quoted("ramp")}});
 
 TEST(DeckRuns, CurveDrivenRampAppliesTheCurvesForceHistory) {
   const Config cfg = parse_deck(kRamp, "ramp.toml", ".");
@@ -121,27 +108,17 @@ TEST(DeckRuns, CurvesScaleTractionsAndKinematicMotion) {
 //! A jelly cube falling at 2 m/s towards z = 0 in a grid box down to z = -0.5, with `obstacle`
 //! appended.
 std::string falling_cube(const std::string& obstacle) {
-  return R"([simulation]
-dt = 0.005
-end_time = 0.2
-[solver]
-method = "mpm"
-[domain]
-voxel_size = 0.05
-[[geometry]]
-type = "box"
-lo = [0, 0, 0.1]
-hi = [0.2, 0.2, 0.3]
-[material]
-model = "fixed_corotated"
-youngs_modulus = 2e5
-poisson_ratio = 0.3
-density = 1000
-[mpm]
-lo = [-0.3, -0.3, -0.5]
-hi = [0.5, 0.5, 0.8]
-velocity = [0, 0, -2]
-)" + obstacle;
+  return TestDeck()
+             .simulation(0.005, 0.2)
+             .mpm()
+             .domain(0.05)
+             .box({0, 0, 0.1}, {0.2, 0.2, 0.3})
+             .material(2e5, 0.3, 1000, {{"model", quoted("fixed_corotated")}})
+             .table("mpm", {{"lo", "[-0.3, -0.3, -0.5]"},
+                            {"hi", "[0.5, 0.5, 0.8]"},
+                            {"velocity", "[0, 0, -2]"}})
+             .str() +
+         obstacle;
 }
 
 struct Fall {

@@ -25,9 +25,11 @@
 #include "diagnose/Model.hpp"
 #include "diagnose/Recording.hpp"
 #include "diagnose/Report.hpp"
+#include "test_diagnose_common.hpp"
 
 using namespace gen4d;
 using namespace gen4d::diagnose;
+using namespace gen4d::diagnose::testing;
 
 namespace {
 
@@ -290,7 +292,7 @@ force = [0, 0, -0.01]
     Physics p = m.nominal();
     p.element = k == 0 ? Element::incompatible : Element::trilinear;
     p.gravity = {0, 0, 0};
-    p.rayleigh_alpha = 40;  // about critical (2 omega_1, omega_1 = 16 rad/s): settled by 4 s
+    set_damping(p, 40, 0);  // about critical (2 omega_1, omega_1 = 16 rad/s): settled by 4 s
     const Trace tr = m.run(p, r);
     ASSERT_TRUE(tr.ok) << tr.failure;
     const double d = 0.01 - tr.channel[0][2];
@@ -474,14 +476,9 @@ TEST(DiagnoseModel, VectorKernelIsTheScalarElementLoopBitForBit) {
   const Physics base = vec.nominal();
   Physics big = base;
   big.load_scale = 8;
-  big.has_region = true;
-  big.region.lo = {0.03, 0, 0};
-  big.region.hi = {0.06, 0.02, 0.02};
-  big.region_factor = 0.5;
-  big.rayleigh_beta = 2e-3;
-  big.rayleigh_alpha = 0.5;
-  big.prony_g = 0.2;
-  big.prony_tau = 0.05;
+  set_region(big, {{0.03, 0, 0}, {0.06, 0.02, 0.02}}, 0.5);
+  set_damping(big, 0.5, 2e-3);
+  set_prony(big, 0.2, 0.05);
   Physics tri = big;
   tri.element = Element::trilinear;
   tri.consistent_mass_fraction = 0;
@@ -547,10 +544,9 @@ end = 0.3
   r[0].at = vec.attach({0.16, 0.08, 0.02});
   for (double t = 0; t <= 0.4 + 1e-12; t += 0.01) r[0].t.push_back(t);
   Physics p = vec.nominal();
-  p.has_region = true;
-  p.region = vec.bounds();
-  p.region.hi[0] = 0.04;
-  p.region_factor = 0.306;
+  BoxRegion soft_box = vec.bounds();
+  soft_box.hi[0] = 0.04;
+  set_region(p, soft_box, 0.306);
   const Trace a = vec.run(p, r);
   ASSERT_TRUE(a.ok) << a.failure;
   EXPECT_GE(0.002 * static_cast<double>(a.steps), 0.4);  // to the end
@@ -562,7 +558,7 @@ end = 0.3
   for (std::size_t k = 0; k < a.channel[0].size(); ++k)
     ASSERT_EQ(a.channel[0][k], b.channel[0][k]) << "value " << k;
   // The uniform plate never comes near it.
-  p.has_region = false;
+  clear_effect(p, "heterogeneity");
   const Trace u = vec.run(p, r);
   ASSERT_TRUE(u.ok) << u.failure;
   EXPECT_EQ(u.continued_points, 0);
@@ -637,16 +633,15 @@ TEST(DiagnoseModel, TrapezoidalRuleKeepsAmplitudeAndDampingDecaysAtItsModalRate)
   ASSERT_TRUE(free.ok);
   const double a_early = amplitude(free, r, 0.2, 0.5), a_late = amplitude(free, r, 0.7, 1.0);
   EXPECT_NEAR(a_late / a_early, 1.0, 0.02);  // no numerical damping
-  p.rayleigh_alpha = 2.0;                    // amplitude ~ exp(-alpha t / 2)
+  set_damping(p, 2.0, 0);                    // amplitude ~ exp(-alpha t / 2)
   const Trace damped = m.run(p, r);
   ASSERT_TRUE(damped.ok);
   const double ratio = amplitude(damped, r, 0.7, 1.0) / amplitude(damped, r, 0.2, 0.5);
   EXPECT_NEAR(std::log(ratio) / -0.5, 1.0, 0.1);  // 0.5 s apart: exp(-0.5)
   // Stiffness damping, beta K: zeta omega = beta omega^2 / 2 for the first mode.
-  p.rayleigh_alpha = 0;
   const double omega = first_mode_omega(free, r);
   ASSERT_GT(omega, 0);
-  p.rayleigh_beta = 2.0 / (omega * omega);  // decay rate 1 / s
+  set_damping(p, 0, 2.0 / (omega * omega));  // decay rate 1 / s
   const Trace stiff = m.run(p, r);
   ASSERT_TRUE(stiff.ok) << stiff.failure;
   EXPECT_NEAR(decay_rate(stiff, r), 1.0, 0.05);
@@ -665,8 +660,7 @@ TEST(DiagnoseModel, AClampsFoundationGivesTheSameFrequencyDropOnAnyMesh) {
     const auto r = tip_request(m, 1.0, 0.002);
     Physics p = m.nominal();
     const Trace rigid = m.run(p, r);
-    p.clamp_stiffness = 0.3 * p.youngs_modulus / 0.01;
-    p.clamp_damping = 0;
+    set_clamp(p, 0.3 * p.youngs_modulus / 0.01, 0);
     const Trace soft = m.run(p, r);
     ASSERT_TRUE(rigid.ok && soft.ok);
     drop[level] = 1 - first_mode_omega(soft, r) / first_mode_omega(rigid, r);
@@ -688,8 +682,7 @@ TEST(DiagnoseModel, PlasticityPastYieldConvergesAndLeavesAPermanentSet) {
   p.load_scale = 10;  // a 2 cm tip swing
   const Trace elastic = m.run(p, r);
   ASSERT_TRUE(elastic.ok);
-  p.yield_stress = 0.3 * elastic.max_mises;
-  p.hardening = 0.005 * p.youngs_modulus;
+  set_plasticity(p, 0.3 * elastic.max_mises, 0.005 * p.youngs_modulus);
   const Trace plastic = m.run(p, r);
   ASSERT_TRUE(plastic.ok) << plastic.failure;
   EXPECT_LT(static_cast<double>(plastic.newton_iterations) / plastic.steps, 6.0);
@@ -927,9 +920,7 @@ TEST(DiagnoseModel, RestFrequencyIsTheMotionsFirstMode) {
   EXPECT_NEAR(w_rest / w_run, 1.0, 2e-3);  // 1.0005
   // A soft root quarter: both frequencies fall, by the same factor.
   Physics soft = p;
-  soft.has_region = true;
-  soft.region = {{0, 0, 0}, {0.03, 0.02, 0.02}};
-  soft.region_factor = 0.4;
+  set_region(soft, {{0, 0, 0}, {0.03, 0.02, 0.02}}, 0.4);
   const double drop_run = motion(m, soft) / w_run,
                drop_rest = m.rest_frequency(soft, y_axis) / w_rest;
   EXPECT_LT(drop_rest, 0.9);
@@ -947,7 +938,7 @@ TEST(DiagnoseModel, RestFrequencyIsTheMotionsFirstMode) {
   stiff.youngs_modulus *= 4;
   EXPECT_NEAR(m.rest_frequency(stiff, y_axis) / w_rest, 2.0, 1e-9);
   Physics sprung = p;
-  sprung.clamp_stiffness = 1e7;
+  set_clamp(sprung, 1e7, 0);
   EXPECT_TRUE(std::isnan(m.rest_frequency(sprung, y_axis)));
 }
 
@@ -960,7 +951,7 @@ TEST(DiagnoseFit, RanksShareRunsBitForBitAndTaoRecoversE) {
   Evaluator ev(MPI_COMM_WORLD, m, obs);
   std::vector<Physics> batch(3, m.nominal());
   batch[1].youngs_modulus *= 1.05;
-  batch[2].rayleigh_alpha = 1;
+  set_damping(batch[2], 1, 0);
   // The accounting: each rank adds its wall seconds in run() less its own runs' seconds as
   // idle, so run + idle is the ranks' summed wall in run(), which the test's own timers
   // enclose; with 2 ranks the rank without the lone run spends all of its call idle. (Checking
@@ -1040,15 +1031,24 @@ TEST(DiagnoseFit, EvaluatorTakesRepeatedRunsFromItsMemo) {
   std::size_t k = 0;
   for (const auto& ch : local.channel)
     for (double v : ch) ASSERT_EQ(v, again[0].y[k++]);
-  // Each field of the physics and the horizon are part of what is looked up.
+  // Each field of the physics, each applied effect's terms and the horizon are part of what
+  // is looked up; an effect at its null values is not.
   Physics other = m.nominal();
-  other.region_factor = 0.5;
+  const BoxRegion box{{0.03, 0, 0}, {0.06, 0.02, 0.02}};
+  set_region(other, box, 0.5);
   EXPECT_NE(physics_key(other, 1.0), physics_key(m.nominal(), 1.0));
+  Physics moved = m.nominal();
+  BoxRegion box2 = box;
+  box2.hi[2] += 1e-3;
+  set_region(moved, box2, 0.5);
+  EXPECT_NE(physics_key(other, 1.0), physics_key(moved, 1.0));
   other = m.nominal();
   other.law = other.law == "stvk" ? "corotated" : "stvk";
   EXPECT_NE(physics_key(other, 1.0), physics_key(m.nominal(), 1.0));
   other = m.nominal();
-  other.region.hi[2] += 1e-3;
+  set_damping(other, 0, 0);
+  EXPECT_EQ(physics_key(other, 1.0), physics_key(m.nominal(), 1.0));
+  set_damping(other, 0, 1e-4);
   EXPECT_NE(physics_key(other, 1.0), physics_key(m.nominal(), 1.0));
   EXPECT_NE(physics_key(m.nominal(), 0.3), physics_key(m.nominal(), 1.0));
   ev.set_horizon(0.3);
@@ -1137,7 +1137,7 @@ TEST(DiagnoseFit, ColumnsRunAheadLeaveAFitUnchangedBitForBit) {
   const VoxelModel m(deck());
   Physics truth = m.nominal();
   truth.youngs_modulus *= 1.1;
-  truth.rayleigh_alpha = 2.0;
+  set_damping(truth, 2.0, 0);
   const Observations obs = tip_observations(m, truth, 0.6);
   ASSERT_FALSE(obs.y.empty());
   LsqProblem pb = baseline_problem(m, obs, 2e-3);
@@ -1147,7 +1147,7 @@ TEST(DiagnoseFit, ColumnsRunAheadLeaveAFitUnchangedBitForBit) {
   const auto base_physics = pb.physics;
   pb.physics = [base_physics](const std::vector<double>& z) {
     Physics p = base_physics({z[0], z[1]});
-    p.rayleigh_alpha = std::exp(z[2]);
+    set_damping(p, std::exp(z[2]), 0);
     return p;
   };
   const std::vector<double> z0 = {std::log(3e5), 0.3, std::log(0.5)};
@@ -1260,10 +1260,8 @@ TEST(DiagnoseFit, HorizonStopsRunsAndContinuationFitsAStiffRootFromOutOfPhase) {
   Observations obs;
   obs.requests = tip_request(m, 1.0, 0.01);
   Physics truth = m.nominal();
-  truth.has_region = true;
-  truth.region.lo = {0, 0, 0};
-  truth.region.hi = {0.03, 0.02, 0.02};
-  truth.region_factor = 2.5;
+  const BoxRegion root{{0, 0, 0}, {0.03, 0.02, 0.02}};
+  set_region(truth, root, 2.5);
   const Trace tr = m.run(truth, obs.requests);
   ASSERT_TRUE(tr.ok);
   add_noiseless(obs, tr);
@@ -1304,7 +1302,7 @@ TEST(DiagnoseFit, HorizonStopsRunsAndContinuationFitsAStiffRootFromOutOfPhase) {
   pb.physics = [&](const std::vector<double>& z) {
     Physics p = truth;
     p.youngs_modulus = std::exp(z[0]);
-    p.region_factor = std::exp(z[1]);
+    set_region(p, root, std::exp(z[1]));
     return p;
   };
   const double w_true = first_mode_omega(tr, obs.requests);
@@ -1354,8 +1352,8 @@ TEST(DiagnoseFit, ClampDampingIsFoundWithTheEffectsOwnBoundsAndSteps) {
   const Physics nominal = m.nominal();
   const double k_ref = nominal.youngs_modulus / m.h();
   Physics truth = nominal;
-  truth.clamp_stiffness = 0.4 * k_ref;
-  truth.clamp_damping = 1e-3 * truth.clamp_stiffness;
+  const double k_true = 0.4 * k_ref, c_true = 1e-3 * k_true;
+  set_clamp(truth, k_true, c_true);
   const Trace tr = m.run(truth, obs.requests);
   ASSERT_TRUE(tr.ok);
   add_noiseless(obs, tr);
@@ -1371,10 +1369,10 @@ TEST(DiagnoseFit, ClampDampingIsFoundWithTheEffectsOwnBoundsAndSteps) {
   auto problem = [&](const std::vector<ParamSpec>& sp) {
     return effect_problem(clamp, ctx, nominal, sp, obs);
   };
-  const std::vector<double> z0 = {std::log(1.2 * truth.clamp_stiffness), 0.0};
+  const std::vector<double> z0 = {std::log(1.2 * k_true), 0.0};
   const LsqResult r = least_squares(ev, problem(specs), z0, 15);
-  EXPECT_NEAR(std::exp(r.z[0]) / truth.clamp_stiffness, 1.0, 1e-2);
-  EXPECT_NEAR(r.z[1] * specs[1].scale / truth.clamp_damping, 1.0, 5e-2);
+  EXPECT_NEAR(std::exp(r.z[0]) / k_true, 1.0, 1e-2);
+  EXPECT_NEAR(r.z[1] * specs[1].scale / c_true, 1.0, 5e-2);
   // The damping's earlier spec, in Pa s/m (scale 1) up to 1e4 times this bound: its steps
   // barely moved it (TAO's bounded Newton method is not invariant to units), and its
   // finite-difference step was 1e4 times longer. The same fit stops far from the truth
@@ -1387,8 +1385,7 @@ TEST(DiagnoseFit, ClampDampingIsFoundWithTheEffectsOwnBoundsAndSteps) {
   std::printf(
       "clamp: stiffness %.5g (truth %.5g), damping %.5g (truth %.5g), chi2 %.3g, %ld "
       "runs; the earlier damping spec: damping %.4g, chi2 %.3g\n",
-      std::exp(r.z[0]), truth.clamp_stiffness, r.z[1] * specs[1].scale, truth.clamp_damping, r.chi2,
-      r.runs, ro.z[1], ro.chi2);
+      std::exp(r.z[0]), k_true, r.z[1] * specs[1].scale, c_true, r.chi2, r.runs, ro.z[1], ro.chi2);
 }
 
 TEST(DiagnoseFit, PlasticHardeningIsFoundWithTheEffectsOwnBoundsAndSteps) {
@@ -1404,8 +1401,8 @@ TEST(DiagnoseFit, PlasticHardeningIsFoundWithTheEffectsOwnBoundsAndSteps) {
   const Trace elastic = m.run(nominal, obs.requests);
   ASSERT_TRUE(elastic.ok);
   Physics truth = nominal;
-  truth.yield_stress = 0.3 * elastic.max_mises;
-  truth.hardening = 0.05 * nominal.youngs_modulus;
+  const double yield_true = 0.3 * elastic.max_mises, hardening_true = 0.05 * nominal.youngs_modulus;
+  set_plasticity(truth, yield_true, hardening_true);
   const Trace tr = m.run(truth, obs.requests);
   ASSERT_TRUE(tr.ok) << tr.failure;
   add_noiseless(obs, tr);
@@ -1422,12 +1419,12 @@ TEST(DiagnoseFit, PlasticHardeningIsFoundWithTheEffectsOwnBoundsAndSteps) {
   const auto specs = plastic.params(ctx, "");
   ASSERT_EQ(specs.size(), 2u);
   auto start = [&](const std::vector<ParamSpec>& sp) {
-    return std::vector<double>{std::log(1.1 * truth.yield_stress),
+    return std::vector<double>{std::log(1.1 * yield_true),
                                0.02 * nominal.youngs_modulus / sp[1].scale};
   };
   const LsqResult r = least_squares(ev, problem(specs), start(specs), 12);
-  EXPECT_NEAR(std::exp(r.z[0]) / truth.yield_stress, 1.0, 1e-3);
-  EXPECT_NEAR(r.z[1] * specs[1].scale / truth.hardening, 1.0, 1e-2);
+  EXPECT_NEAR(std::exp(r.z[0]) / yield_true, 1.0, 1e-3);
+  EXPECT_NEAR(r.z[1] * specs[1].scale / hardening_true, 1.0, 1e-2);
   // In Pa (scale 1) the hardening barely moves from its start (measured: 6001 Pa of 15000
   // after 4 iterations, the yield stress 3 % high, chi2 6.7e5). Small-valued parameters do
   // not suffer so: Rayleigh's beta (~2e-3 s) is recovered in s.
@@ -1438,8 +1435,8 @@ TEST(DiagnoseFit, PlasticHardeningIsFoundWithTheEffectsOwnBoundsAndSteps) {
   std::printf(
       "plastic: yield %.5g (truth %.5g), hardening %.5g (truth %.5g), chi2 %.3g, %ld runs; "
       "unscaled: yield %.5g, hardening %.5g, chi2 %.3g, %ld runs\n",
-      std::exp(r.z[0]), truth.yield_stress, r.z[1] * specs[1].scale, truth.hardening, r.chi2,
-      r.runs, std::exp(ru.z[0]), ru.z[1], ru.chi2, ru.runs);
+      std::exp(r.z[0]), yield_true, r.z[1] * specs[1].scale, hardening_true, r.chi2, r.runs,
+      std::exp(ru.z[0]), ru.z[1], ru.chi2, ru.runs);
 }
 
 TEST(DiagnoseModal, TwoModesFromUnevenNoisySamplesAndNoSecondWhenItIsAbsent) {
@@ -1511,10 +1508,7 @@ TEST(DiagnoseModal, TheRatioOfTwoModesIgnoresEAndMovesWithAStiffRoot) {
   Physics stiffer = m.nominal();
   stiffer.youngs_modulus *= 1.3;
   Physics root = m.nominal();
-  root.has_region = true;
-  root.region.lo = {0, 0, 0};
-  root.region.hi = {0.03, 0.02, 0.02};
-  root.region_factor = 2.5;
+  set_region(root, {{0, 0, 0}, {0.03, 0.02, 0.02}}, 2.5);
   const double r_a = ratio(m.nominal(), w_a), r_b = ratio(stiffer, w_b), r_c = ratio(root, w_c);
   EXPECT_NEAR(w_b / w_a, std::sqrt(1.3), 5e-3);
   // E moves the ratio only through the amplitude (the loads are fixed, and large rotations
@@ -1537,7 +1531,7 @@ std::string damped_recording(const Config& cfg, const std::string& name) {
   const VoxelModel m(cfg);
   Physics truth = m.nominal();
   truth.youngs_modulus *= 0.92;
-  truth.rayleigh_alpha = 3.0;
+  set_damping(truth, 3.0, 0);
   const std::vector<Vec3d> markers = {{0.1, 0.01, 0.02}, {0.07, 0.0, 0.01}, {0.04, 0.02, 0.0}};
   const std::vector<Vec3d> sensors = {{0.1, 0.0, 0.0}, {0.06, 0.02, 0.02}};
   std::vector<ChannelRequest> req;
@@ -1814,9 +1808,8 @@ TEST(DiagnoseEndToEnd, FindsAGroundTheDeckLeftOutOnDataFromFinerVoxels) {
   fine.material.youngs_modulus = 3e5;
   const VoxelModel truth_model(fine);
   Physics truth = truth_model.nominal();
-  truth.ground = true;
-  truth.ground_height = -0.024;
-  truth.ground_friction = 0.4;
+  const double ground_height = -0.024, ground_friction = 0.4;
+  set_ground(truth, ground_height, ground_friction);
   const std::vector<Vec3d> markers = {{0.02, 0.0, 0.0},  {0.04, 0.02, 0.01}, {0.05, 0.01, 0.02},
                                       {0.07, 0.0, 0.02}, {0.09, 0.02, 0.0},  {0.1, 0.01, 0.0}};
   const auto req = marker_requests(truth_model, markers, 100, 0.01);
@@ -1853,7 +1846,7 @@ TEST(DiagnoseEndToEnd, FindsAGroundTheDeckLeftOutOnDataFromFinerVoxels) {
   EXPECT_NE(js.find("\"effect\": \"contact_friction\""), std::string::npos) << js.substr(0, 600);
   std::smatch mt;
   ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"height\": \\{\"value\": ([-0-9.e+]+)")));
-  EXPECT_NEAR(std::stod(mt[1].str()) / truth.ground_height, 1.0, 0.05);
+  EXPECT_NEAR(std::stod(mt[1].str()) / ground_height, 1.0, 0.05);
   ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"youngs_modulus\": ([-0-9.e+]+)")));
   EXPECT_NEAR(std::stod(mt[1].str()) / 3e5, 1.0, 0.05);
   // The friction coefficient's value is not checked: the model's friction acts on the velocity
@@ -1874,11 +1867,11 @@ TEST(DiagnoseEndToEnd, FindsAGroundTheDeckLeftOutOnDataFromFinerVoxels) {
                       : std::make_pair(std::stod(ci[1].str()), std::stod(ci[2].str()));
   };
   const auto [f_lo, f_hi] = interval("friction");
-  EXPECT_LE(f_lo, truth.ground_friction);
-  EXPECT_GE(f_hi, truth.ground_friction);
+  EXPECT_LE(f_lo, ground_friction);
+  EXPECT_GE(f_hi, ground_friction);
   const auto [h_lo, h_hi] = interval("height");
-  EXPECT_LE(h_lo, truth.ground_height);
-  EXPECT_GE(h_hi, truth.ground_height);
+  EXPECT_LE(h_lo, ground_height);
+  EXPECT_GE(h_hi, ground_height);
   // Both intervals span a scan of the parameter's range as well (6 values each).
   EXPECT_NE(js.find("\"scan_points\": 6, \"scan_runs\": 12"), std::string::npos) << js;
   for (const std::string name : {"height", "friction"})
@@ -1896,7 +1889,7 @@ TEST(DiagnoseEndToEnd, FindsHiddenDampingOnAnLBracket) {
   EXPECT_EQ(m.voxels(), 52u);
   Physics truth = m.nominal();
   truth.youngs_modulus *= 1.08;
-  truth.rayleigh_alpha = 3.0;
+  set_damping(truth, 3.0, 0);
   DiagnoseOptions opt;
   // Not air drag: on a body two voxels thick every voxel is at the surface, and surface drag
   // is mass damping by another name (diagnose says so: ambiguous, 9.71e-6 against 9.74e-6 m
@@ -1958,10 +1951,9 @@ end = 0.1
   const VoxelModel m(cfg);
   Physics truth = m.nominal();
   truth.youngs_modulus *= 1.04;
-  truth.has_region = true;
-  truth.region = m.bounds();
-  truth.region.hi[0] = 0.02;
-  truth.region_factor = 0.3;
+  BoxRegion soft_box = m.bounds();
+  soft_box.hi[0] = 0.02;
+  set_region(truth, soft_box, 0.3);
   const std::vector<Vec3d> markers = {{0.08, 0.0, 0.02},  {0.08, 0.04, 0.0}, {0.06, 0.02, 0.02},
                                       {0.04, 0.04, 0.02}, {0.03, 0.0, 0.0},  {0.07, 0.04, 0.01}};
   const auto req = marker_requests(m, markers, 160, 0.005);
@@ -2001,10 +1993,7 @@ TEST(DiagnoseEndToEnd, FindsASoftBlockInAnLBracket) {
   const VoxelModel m(cfg);
   Physics truth = m.nominal();
   truth.youngs_modulus *= 1.08;
-  truth.has_region = true;
-  truth.region.lo = {0.02, 0, 0};
-  truth.region.hi = {0.04, 0.02, 0.02};
-  truth.region_factor = 0.4;
+  set_region(truth, {{0.02, 0, 0}, {0.04, 0.02, 0.02}}, 0.4);
   DiagnoseOptions opt;
   opt.effects = {"heterogeneity", "damping", "clamp_compliance", "gravity"};
   // The recording is the h voxels' own, so their discretisation error (5.3e-5 m rms on this

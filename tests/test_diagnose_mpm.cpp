@@ -20,9 +20,11 @@
 #include "diagnose/Fit.hpp"
 #include "diagnose/MpmModel.hpp"
 #include "diagnose/Recording.hpp"
+#include "test_diagnose_common.hpp"
 
 using namespace gen4d;
 using namespace gen4d::diagnose;
+using namespace gen4d::diagnose::testing;
 
 namespace {
 
@@ -169,9 +171,7 @@ TEST(DiagnoseMpmModel, AFrictionPlaneStopsASlidingBlockWhereCoulombSays) {
   const auto req = requests(m, {{0.04, 0.02, 0.04}}, 60, 0.01);
   auto slid = [&](double height, double mu) {
     Physics ph = m.nominal();
-    ph.ground = true;
-    ph.ground_height = height;
-    ph.ground_friction = mu;
+    set_ground(ph, height, mu);
     const Trace tr = m.run(ph, req);
     EXPECT_TRUE(tr.ok) << tr.failure;
     return tr.channel[0][3 * 60] - 0.04;
@@ -225,16 +225,16 @@ TEST(DiagnoseMpmModel, AirDragAndDryFrictionSlowAFlyingBlockAsTheirLawsSay) {
   EXPECT_NEAR(travelled(m.nominal()), T, 1e-9);
   // Linear drag c: v = v0 exp(-k t), k = c A / m = 2 1/s; x = v0 (1 - exp(-k T)) / k.
   Physics lin = m.nominal();
-  lin.drag_linear = 2.0 * mass / A;
+  set_drag(lin, 2.0 * mass / A, 0);
   const double x_lin = (1 - std::exp(-2.0 * T)) / 2.0;
   EXPECT_NEAR(travelled(lin) / x_lin, 1.0, 2e-3) << "linear drag";
   // Quadratic drag: v = v0 / (1 + k v0 t), k = c A / m = 3 1/m; x = log(1 + k v0 T) / k.
   Physics quad = m.nominal();
-  quad.drag_quadratic = 3.0 * mass / A;
+  set_drag(quad, 0, 3.0 * mass / A);
   EXPECT_NEAR(travelled(quad) / (std::log(1 + 3.0 * T) / 3.0), 1.0, 2e-3) << "quadratic drag";
   // Dry friction a_c = 4 m/s^2: the block stops after v0^2 / (2 a_c) = 0.125 m, at 0.25 s.
   Physics dry = m.nominal();
-  dry.coulomb_accel = 4.0;
+  set_dry_friction(dry, 4.0);
   EXPECT_NEAR(travelled(dry) / 0.125, 1.0, 1e-2) << "dry friction";
 }
 
@@ -260,16 +260,16 @@ TEST(DiagnoseMpmModel, ARegionFactorAPronyTermAndStiffnessDampingActOnTheStress)
   // A region holding the whole body at factor 1.5 is the body at 1.5 E (the elastic laws'
   // stresses are linear in E at the same nu), to rounding; half the body moves the markers.
   Physics whole = base;
-  whole.has_region = true;
-  whole.region = m.bounds();
-  whole.region_factor = 1.5;
+  set_region(whole, m.bounds(), 1.5);
   Physics stiffer = base;
   stiffer.youngs_modulus *= 1.5;
   const Trace t_stiff = run(stiffer);
   EXPECT_LT(max_apart(run(whole), t_stiff), 1e-9);
   EXPECT_GT(max_apart(t_stiff, ref), 2e-5) << max_apart(t_stiff, ref);
-  Physics half = whole;
-  half.region.hi[0] = 0.04;
+  Physics half = base;
+  BoxRegion half_box = m.bounds();
+  half_box.hi[0] = 0.04;
+  set_region(half, half_box, 1.5);
   const Trace t_half = run(half);
   EXPECT_GT(max_apart(t_half, ref), 5e-6) << max_apart(t_half, ref);
   EXPECT_GT(max_apart(t_half, t_stiff), 5e-6) << max_apart(t_half, t_stiff);
@@ -277,26 +277,25 @@ TEST(DiagnoseMpmModel, ARegionFactorAPronyTermAndStiffnessDampingActOnTheStress)
   // far slower is the elastic body (the relaxing stress is carried in the particle's rotated
   // frame, so the sliding block's rigid motion leaves it alone).
   Physics fast = base;
-  fast.prony_g = 0.4;
-  fast.prony_tau = 1e-9;
+  set_prony(fast, 0.4, 1e-9);
   Physics softer = base;
   softer.youngs_modulus *= 0.6;
   const Trace t_soft = run(softer);
   EXPECT_LT(max_apart(run(fast), t_soft), 1e-6);
   Physics slow = fast;
-  slow.prony_tau = 1e9;
+  set_prony(slow, 0.4, 1e9);
   EXPECT_LT(max_apart(run(slow), ref), 1e-6);
   // Stiffness damping acts on the rate of deformation only: it does not slow the flying
   // block's rigid translation, and it damps the sag's ringing of the sliding one.
   const MpmModel fly = flying_block("[1.0, 0, 0]", "[0, 0, 0]");
   const auto freq = requests(fly, {{0.04, 0.02, 0.1}}, 30, 0.01);
   Physics fb = fly.nominal();
-  fb.rayleigh_beta = 1e-3;
+  set_damping(fb, 0, 1e-3);
   const Trace t_fly = fly.run(fb, freq), t_fly0 = fly.run(fly.nominal(), freq);
   ASSERT_TRUE(t_fly.ok && t_fly0.ok) << t_fly.failure << t_fly0.failure;
   EXPECT_LT(max_apart(t_fly, t_fly0), 1e-9);
   Physics damped = base;
-  damped.rayleigh_beta = 1e-3;
+  set_damping(damped, 0, 1e-3);
   const Trace t_damped = run(damped);
   // The top centre marker's vertical ringing about its late mean, over the last 0.1 s.
   auto ringing = [&](const Trace& tr) {
@@ -327,9 +326,8 @@ TEST(DiagnoseMpmModel, RanksShareRunsBitForBit) {
         obs.heldout.push_back(0);
       }
   std::vector<Physics> batch(3, m.nominal());
-  batch[1].ground = true;
-  batch[1].ground_friction = 0.4;
-  batch[2].rayleigh_alpha = 3;
+  set_ground(batch[1], 0, 0.4);
+  set_damping(batch[2], 3, 0);
   Evaluator ev(MPI_COMM_WORLD, m, obs);
   const auto got = ev.run(batch);
   for (std::size_t i = 0; i < batch.size(); ++i) {
@@ -417,9 +415,7 @@ std::string diagnose_slide(double mu, const std::string& name) {
   fine.dt = 0.5 * dt;
   const MpmModel truth_model(fine);
   Physics truth = truth_model.nominal();
-  truth.ground = mu > 0;
-  truth.ground_height = 0;
-  truth.ground_friction = mu;
+  if (mu > 0) set_ground(truth, 0, mu);
   const auto req = requests(truth_model, kMarkers, 60, 0.01);
   const Trace tr = truth_model.run(truth, req);
   EXPECT_TRUE(tr.ok) << tr.failure;

@@ -66,7 +66,7 @@ std::string recording_path() {
   const VoxelModel m(deck());
   Physics truth = m.nominal();
   truth.youngs_modulus = kTrueE;
-  truth.rayleigh_alpha = kTrueAlpha;
+  set_effect_terms(truth, "damping", {kTrueAlpha, 0});
   const std::vector<Vec3d> markers = {
       {0.08, 0.01, 0.02}, {0.06, 0.0, 0.01}, {0.04, 0.02, 0.0}, {0.08, 0.0, 0.0}};
   std::vector<ChannelRequest> req;

@@ -8,6 +8,7 @@
 
 #include "core/Error.hpp"
 #include "parallel/Signals.hpp"
+#include "deck_test_util.hpp"
 #include "elastogen_test_util.hpp"
 #include "io/Checkpoint.hpp"
 
@@ -16,91 +17,40 @@ namespace fs = std::filesystem;
 
 namespace {
 // A soft L-shaped jelly, clamped on one face, pushed sideways and down for a few steps.
-const char* kWobbleDeck = R"(
-[simulation]
-dt = 0.01
-end_time = 0.12
-gravity = [0.0, 0.0, -9.81]
-[domain]
-voxel_size = 0.02
-[[geometry]]
-type = "box"
-lo = [0.0, 0.0, 0.0]
-hi = [0.24, 0.1, 0.08]
-[[geometry]]
-type = "sphere"
-center = [0.22, 0.05, 0.1]
-radius = 0.06
-[material]
-youngs_modulus = 5.0e4
-poisson_ratio = 0.3
-density = 1000.0
-[solver]
-max_sweeps = 60
-[[fixed]]
-lo = [-1.0, -1.0, -1.0]
-hi = [0.001, 1.0, 1.0]
-[[force]]
-lo = [0.15, -1.0, -1.0]
-hi = [1.0, 1.0, 1.0]
-force = [0.0, 3.0, -6.0]
-end = 0.05
-)";
+const std::string kWobbleDeck =
+    test::TestDeck()
+        .simulation(0.01, 0.12, {{"gravity", "[0, 0, -9.81]"}})
+        .domain(0.02)
+        .box({0, 0, 0}, {0.24, 0.1, 0.08})
+        .table("[geometry]",
+               {{"type", "\"sphere\""}, {"center", "[0.22, 0.05, 0.1]"}, {"radius", "0.06"}})
+        .material(5.0e4, 0.3, 1000)
+        .table("solver", {{"max_sweeps", "60"}})
+        .clamp()
+        .region("force", {0.15, -1, -1}, {1, 1, 1}, {{"force", "[0, 3, -6]"}, {"end", "0.05"}});
 
 // A beam clamped at x = 0 whose other end a kinematic region turns about the beam axis at
 // pi/2 rad/s (no gravity).
-const char* kTwistDeck = R"(
-[simulation]
-dt = 0.02
-end_time = 0.1
-gravity = [0.0, 0.0, 0.0]
-[domain]
-voxel_size = 0.02
-padding = 0
-[[geometry]]
-type = "box"
-lo = [0.0, 0.0, 0.0]
-hi = [0.24, 0.06, 0.06]
-[material]
-target = "analytic"
-youngs_modulus = 1.0e5
-poisson_ratio = 0.3
-density = 1000.0
-[solver]
-accuracy_tolerance = 1e-7
-max_extra_outer = 3000
-[[fixed]]
-lo = [-1.0, -1.0, -1.0]
-hi = [0.001, 1.0, 1.0]
-[[kinematic]]
-lo = [0.239, -1.0, -1.0]
-hi = [1.0, 1.0, 1.0]
-center = [0.24, 0.03, 0.03]
-angular_velocity = [1.5707963267948966, 0.0, 0.0]
-)";
+const std::string kTwistDeck =
+    test::TestDeck()
+        .simulation(0.02, 0.1, {test::TestDeck::no_gravity()})
+        .unpadded(0.02)
+        .box({0, 0, 0}, {0.24, 0.06, 0.06})
+        .material(1.0e5, 0.3, 1000, {{"target", "\"analytic\""}})
+        .table("solver", {{"accuracy_tolerance", "1e-7"}, {"max_extra_outer", "3000"}})
+        .clamp()
+        .region(
+            "kinematic", {0.239, -1, -1}, {1, 1, 1},
+            {{"center", "[0.24, 0.03, 0.03]"}, {"angular_velocity", test::toml({M_PI / 2, 0, 0})}});
 
 // The validation cantilever (drivers/validation/cantilever.cpp): Neo-Hookean, under gravity.
-const char* kCantileverDeck = R"(
-[simulation]
-dt = 0.01
-end_time = 0.1
-[domain]
-voxel_size = 0.025
-padding = 0
-[[geometry]]
-type = "box"
-lo = [0.0, 0.0, 0.0]
-hi = [0.5, 0.1, 0.1]
-[material]
-model = "neo_hookean"
-target = "analytic"
-youngs_modulus = 1.0e6
-poisson_ratio = 0.3
-density = 1000.0
-[[fixed]]
-lo = [-1.0, -1.0, -1.0]
-hi = [0.001, 1.0, 1.0]
-)";
+const std::string kCantileverDeck =
+    test::TestDeck()
+        .simulation(0.01, 0.1)
+        .unpadded(0.025)
+        .box({0, 0, 0}, {0.5, 0.1, 0.1})
+        .material(1.0e6, 0.3, 1000, {{"model", "\"neo_hookean\""}, {"target", "\"analytic\""}})
+        .clamp();
 
 Config wobble(const std::vector<std::string>& sets = {}) {
   return parse_deck(kWobbleDeck, "<wobble>", ".", sets);
@@ -324,11 +274,7 @@ TEST(Elastogen, MatchesTheNewtonReferenceTrajectory) {
   const auto xe = test::gather_positions(e), xn = test::gather_positions(n);
   const auto ve = test::gather_positions(e, true);
   if (test::world_rank() == 0) {
-    double diff = 0, motion = 0;
-    for (std::size_t i = 0; i < xe.size(); ++i) {
-      diff = std::max(diff, std::fabs(xe[i] - xn[i]));
-      motion = std::max(motion, std::fabs(ve[i]) * 0.06);
-    }
+    const auto [diff, motion] = test::agreement(xe, xn, ve, 0.06);
     std::printf("[ elastogen vs newton ] max position difference %.3e m, motion scale %.3e m\n",
                 diff, motion);
     EXPECT_LT(diff, 1e-6 * motion);  // measured ~7e-9 at np 1; margin for other rank counts
@@ -439,7 +385,7 @@ TEST(Elastogen, ChebyshevReachesTheInnerToleranceInFewerSweepsThanJacobi) {
   // the whole-spectrum interval (ratio 0) then loses to Jacobi on the leftover rough error.
   struct Case {
     const char* name;
-    const char* deck;
+    const std::string& deck;
   };
   for (const Case& c : {Case{"cantilever", kCantileverDeck}, Case{"twist", kTwistDeck}}) {
     const Config cfg = parse_deck(c.deck, c.name, ".");
@@ -506,11 +452,7 @@ TEST(Elastogen, ChebyshevTwistedBeamMatchesJacobiInFewerSweeps) {
   const auto xj = test::gather_positions(j), xc = test::gather_positions(c);
   const auto vj = test::gather_positions(j, true);
   if (test::world_rank() != 0) return;
-  double diff = 0, motion = 0;
-  for (std::size_t i = 0; i < xj.size(); ++i) {
-    diff = std::max(diff, std::fabs(xj[i] - xc[i]));
-    motion = std::max(motion, std::fabs(vj[i]) * 0.06);
-  }
+  const auto [diff, motion] = test::agreement(xj, xc, vj, 0.06);
   std::printf(
       "[ chebyshev ] twist, 3 steps: sweeps jacobi %ld (%ld loops), chebyshev %ld (%ld "
       "loops), %.1fx; max position difference %.2e m (motion %.2e m)\n",

@@ -11,6 +11,7 @@
 #include <fstream>
 
 #include "elastogen/SplatEmbedding.hpp"
+#include "deck_test_util.hpp"
 #include "elastogen_test_util.hpp"
 #include "gaussians/DeckSplats.hpp"
 #include "gaussians/Ply.hpp"
@@ -26,33 +27,15 @@ namespace {
 using test::scratch_dir;
 
 // A block clamped at x = 0; the splat ball added by the tests overlaps its far end.
-const char* kDeck = R"(
-[simulation]
-dt = 0.01
-end_time = 0.03
-gravity = [0.0, 0.0, -9.81]
-[domain]
-voxel_size = 0.02
-[[geometry]]
-type = "box"
-lo = [0.0, 0.02, 0.02]
-hi = [0.08, 0.08, 0.08]
-[material]
-youngs_modulus = 5.0e4
-poisson_ratio = 0.3
-density = 1000.0
-[solver]
-max_sweeps = 40
-[[fixed]]
-lo = [-1.0, -1.0, -1.0]
-hi = [0.001, 1.0, 1.0]
-[[force]]
-lo = [0.1, -1.0, -1.0]
-hi = [1.0, 1.0, 1.0]
-force = [0.0, 3.0, -6.0]
-[output]
-progress_interval = 1e9
-)";
+const std::string kDeck = test::TestDeck()
+                              .simulation(0.01, 0.03, {{"gravity", "[0, 0, -9.81]"}})
+                              .domain(0.02)
+                              .box({0, 0.02, 0.02}, {0.08, 0.08, 0.08})
+                              .material(5.0e4, 0.3, 1000)
+                              .table("solver", {{"max_sweeps", "40"}})
+                              .clamp()
+                              .region("force", {0.1, -1, -1}, {1, 1, 1}, {{"force", "[0, 3, -6]"}})
+                              .table("output", {{"progress_interval", "1e9"}});
 
 //! Deterministic numbers in [0, 1) (64-bit LCG, top 53 bits).
 struct Lcg {
@@ -111,24 +94,8 @@ Gathered gather_splats(elastogen::Simulation& sim) {
   return g;
 }
 
-//! `map` applied to the rest position of every ghosted node of the rank.
-template <class Map>
-std::vector<double> node_field(const elastogen::VoxelSystem& sys, Map map) {
-  const auto& G = sys.ghosted();
-  std::vector<double> x(3 * G.size());
-  for (long k = G.start[2]; k < G.start[2] + G.count[2]; ++k)
-    for (long j = G.start[1]; j < G.start[1] + G.count[1]; ++j)
-      for (long i = G.start[0]; i < G.start[0] + G.count[0]; ++i) {
-        const auto q = map(sys.rest_position(i, j, k));
-        for (int d = 0; d < 3; ++d) x[3 * G.index(i, j, k) + d] = q[d];
-      }
-  return x;
-}
-
-std::string bytes_of(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
+using test::bytes_of;
+using test::node_field;
 
 }  // namespace
 

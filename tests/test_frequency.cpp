@@ -7,11 +7,10 @@
 // cantilever test) raises f1 by ~1.3 %. 3 % bounds both.
 #include <gtest/gtest.h>
 
-#include <fmt/format.h>
-
 #include <cmath>
 #include <vector>
 
+#include "deck_test_util.hpp"
 #include "elastogen_test_util.hpp"
 
 using namespace gen4d;
@@ -36,37 +35,12 @@ TEST(BeamFrequency, FirstBendingModeMatchesEulerBernoulli) {
   const double f1 =
       1.8751 * 1.8751 / (2 * M_PI) * std::sqrt(E * H * H / 12.0 / (rho * L * L * L * L));
   const double dt = 1.0 / f1 / 100.0;
-  const Config cfg = parse_deck(fmt::format(R"(
-[simulation]
-dt = {}
-end_time = 10.0
-gravity = [0.0, 0.0, 0.0]
-[domain]
-voxel_size = 0.01
-padding = 0
-[[geometry]]
-type = "box"
-lo = [0.0, 0.0, 0.0]
-hi = [0.4, 0.04, 0.04]
-[material]
-target = "analytic"
-youngs_modulus = 1.0e6
-poisson_ratio = 0.0
-density = 1000.0
-[solver]
-accuracy_tolerance = 1e-4
-max_extra_outer = 1000
-[[fixed]]
-lo = [-1.0, -1.0, -1.0]
-hi = [0.001, 1.0, 1.0]
-[[force]]
-lo = [0.399, -1.0, -1.0]
-hi = [1.0, 1.0, 1.0]
-force = [0.0, 0.0, -0.01]
-end = 0.05
-)",
-                                            dt),
-                                "<beam frequency>", ".");
+  BeamDeck beam = test::slender_beam();
+  beam.dt = dt;
+  beam.end_time = 10.0;
+  beam.solver.set("accuracy_tolerance", 1e-4).set("max_extra_outer", 1000);
+  const Config cfg =
+      parse_deck(test::with_tip_load(beam.text(), {{"end", "0.05"}}), "<beam frequency>", ".");
   elastogen::Simulation sim(MPI_COMM_WORLD, cfg);
   std::vector<double> t, z;
   const int steps = static_cast<int>(std::ceil(2.3 / f1 / dt));

@@ -17,6 +17,7 @@
 #include "mpm/MpmSimulation.hpp"
 #include "mpm/Seeding.hpp"
 #include "mpm/Solver.hpp"
+#include "deck_test_util.hpp"
 #include "mpm_test_util.hpp"
 
 namespace gen4d {
@@ -317,50 +318,27 @@ TEST(MpmBoundaries, BitIdenticalAcrossRankCountsWithEveryOption) {
 
 // ---- deck keys ----
 
-const std::string kDeck = R"([simulation]
-dt = 1e-3
-end_time = 0.01
-gravity = [0, 0, 0]
-
-[solver]
-method = "mpm"
-
-[domain]
-voxel_size = 0.05
-
-[[geometry]]
-type = "box"
-lo = [0, 0, 0]
-hi = [0.2, 0.2, 0.2]
-
-[material]
-model = "fixed_corotated"
-youngs_modulus = 1e5
-poisson_ratio = 0.3
-density = 1000
-
-[mpm]
-rpic_damping = 0.5
-grid_velocity_scale = 0.9995
-
-[[boundary]]
-type = "cuboid"
-lo = [0, 0, 0]
-hi = [0.1, 0.2, 0.05]
-velocity = [0.1, 0, 0]
-motion = "moving"
-reset_duration = 0.002
-end = 0.005
-
-[[boundary]]
-type = "surface_collider"
-point = [0, 0, 0.1]
-normal = [0, 1, 0]
-surface = "cut"
-lo = [0, 0, 0.04]
-hi = [1, 1, 0.053]
-cut_scale = 0.25
-)";
+const std::string kDeck =
+    test::TestDeck()
+        .simulation(1e-3, 0.01, {test::TestDeck::no_gravity()})
+        .mpm()
+        .domain(0.05)
+        .box({0, 0, 0}, {0.2, 0.2, 0.2})
+        .material(1e5, 0.3, 1000, {{"model", test::quoted("fixed_corotated")}})
+        .table("mpm", {{"rpic_damping", "0.5"}, {"grid_velocity_scale", "0.9995"}})
+        .region("boundary", {0, 0, 0}, {0.1, 0.2, 0.05},
+                {{"type", test::quoted("cuboid")},
+                 {"velocity", "[0.1, 0, 0]"},
+                 {"motion", test::quoted("moving")},
+                 {"reset_duration", "0.002"},
+                 {"end", "0.005"}})
+        .table("[boundary]", {{"type", test::quoted("surface_collider")},
+                              {"point", "[0, 0, 0.1]"},
+                              {"normal", "[0, 1, 0]"},
+                              {"surface", test::quoted("cut")},
+                              {"lo", "[0, 0, 0.04]"},
+                              {"hi", "[1, 1, 0.053]"},
+                              {"cut_scale", "0.25"}});
 
 //! The message of the InputError that parsing `text` as "bc.toml" throws ("" if none).
 std::string deck_error(const std::string& text) {

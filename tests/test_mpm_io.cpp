@@ -20,23 +20,15 @@
 #include "io/SurfaceIO.hpp"
 #include "mpm/ParticleIO.hpp"
 #include "png_test_util.hpp"
+#include "mpi_test_util.hpp"
 
 namespace gen4d::mpm {
 namespace {
 
 namespace fs = std::filesystem;
 
-int rank_of(MPI_Comm comm) {
-  int rank = 0;
-  MPI_Comm_rank(comm, &rank);
-  return rank;
-}
-
-int size_of(MPI_Comm comm) {
-  int size = 1;
-  MPI_Comm_size(comm, &size);
-  return size;
-}
+using test::rank_of;
+using test::size_of;
 
 int world_rank() {
   return rank_of(MPI_COMM_WORLD);
@@ -47,20 +39,10 @@ int world_size() {
 
 //! An empty folder for one test at this rank count, shared by all ranks.
 std::string scratch_dir(const std::string& name) {
-  const std::string dir = std::string(GEN4D_BINARY_DIR) + "/mpm_io_scratch/" + name + "_np" +
-                          std::to_string(world_size());
-  if (world_rank() == 0) {
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  MPI_Barrier(MPI_COMM_WORLD);
-  return dir;
+  return test::scratch_dir("mpm_io/" + name);
 }
 
-std::string file_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
+using test::bytes_of;
 
 //! `write` must throw RuntimeError on every rank, with `expected` in the message.
 template <class Write>
@@ -381,7 +363,7 @@ TEST(ParticleCheckpoint, BadFilesAreInputErrorsNamingTheFile) {
 
   const std::string truncated = dir + "/truncated.h5";
   if (world_rank() == 0) {
-    const std::string bytes = file_bytes(good);
+    const std::string bytes = bytes_of(good);
     std::ofstream(truncated, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
   }
   MPI_Barrier(MPI_COMM_WORLD);
@@ -644,7 +626,7 @@ TEST(ParticleFrames, FramesHaveTheRightShapesAndAnIndexNamingEveryField) {
         EXPECT_EQ(alive, want_alive);
       }
       H5Fclose(file);
-      const std::string xdmf = file_bytes(dir + "/particles.xdmf");
+      const std::string xdmf = bytes_of(dir + "/particles.xdmf");
       EXPECT_EQ(count_of(xdmf, "TopologyType=\"Polyvertex\" NumberOfElements=\"37\""), 3u);
       EXPECT_EQ(count_of(xdmf, "<Time Value="), 3u);
       EXPECT_EQ(count_of(xdmf, "particles.h5:/frames/000002/position"), 1u);
@@ -670,7 +652,7 @@ TEST(ParticleFrames, FramesHaveTheRightShapesAndAnIndexNamingEveryField) {
     writer.close();
   }
   if (world_rank() == 0) {
-    const std::string xdmf = file_bytes(dir + "/particles.xdmf");
+    const std::string xdmf = bytes_of(dir + "/particles.xdmf");
     EXPECT_EQ(count_of(xdmf, "<Time Value="), 3u);
     EXPECT_EQ(count_of(xdmf, "<Time Value=\"0.625\"/>"), 1u);
     EXPECT_EQ(count_of(xdmf, "particles.h5:/frames/000002/damage"), 0u);
@@ -696,7 +678,7 @@ TEST(ParticleExport, PlyHasTheAliveParticlesInIdOrder) {
   write_particle_ply(MPI_COMM_WORLD, path, my_particles(MPI_COMM_WORLD));
   if (world_rank() == 0)
     [&] {
-      const std::string bytes = file_bytes(path);
+      const std::string bytes = bytes_of(path);
       const std::string header =
           "ply\nformat binary_little_endian 1.0\ncomment gen4d MPM particles in id order\n"
           "element vertex 34\nproperty float x\nproperty float y\nproperty float z\n"

@@ -22,23 +22,15 @@
 #include "mpm/SplatParticles.hpp"
 #include "parallel/Distribute.hpp"
 #include "mpm_test_util.hpp"
+#include "mpi_test_util.hpp"
 
 namespace gen4d {
 namespace {
 
 using test::grid;
 
-int rank_of(MPI_Comm comm) {
-  int r = 0;
-  MPI_Comm_rank(comm, &r);
-  return r;
-}
-
-int size_of(MPI_Comm comm) {
-  int s = 1;
-  MPI_Comm_size(comm, &s);
-  return s;
-}
+using test::rank_of;
+using test::size_of;
 
 //! `n` splats of SH degree 1 uniformly in the box [lo, hi], random orientations and sizes.
 gaussians::SplatSet synthetic_splats(std::size_t n, const Vec3d& lo, const Vec3d& hi) {

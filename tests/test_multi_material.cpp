@@ -13,6 +13,7 @@
 #include "core/Deck.hpp"
 #include "core/Error.hpp"
 #include "elastogen/Simulation.hpp"
+#include "deck_test_util.hpp"
 #include "elastogen_test_util.hpp"
 #include "mpm_test_util.hpp"
 #include "mpm/MaterialSet.hpp"
@@ -22,91 +23,68 @@ namespace gen4d {
 namespace {
 
 // A sand pile with a jelly ball falling into it: the ball is the part named "ball".
-const char* kSandAndBall = R"(
-[simulation]
-dt = 2e-3
-end_time = 0.1
-[domain]
-voxel_size = 0.05
-[[geometry]]
-type = "box"
-name = "pile"
-lo = [0.0, 0.0, 0.0]
-hi = [0.4, 0.3, 0.15]
-[[geometry]]
-type = "sphere"
-name = "ball"
-center = [0.2, 0.15, 0.3]
-radius = 0.08
-[[material]]
-model = "drucker_prager"
-youngs_modulus = 2e5
-poisson_ratio = 0.3
-density = 1600
-friction_angle = 35
-[[material]]
-geometry = "ball"
-model = "fixed_corotated"
-youngs_modulus = 5e4
-poisson_ratio = 0.35
-density = 1000
-[solver]
-method = "mpm"
-[mpm]
-lo = [-0.2, -0.2, -0.2]
-hi = [0.6, 0.5, 0.6]
-velocity = [0.0, 0.0, -0.5]
-[[boundary]]
-type = "surface_collider"
-point = [0.0, 0.0, 0.0]
-normal = [0.0, 0.0, 1.0]
-surface = "sticky"
-)";
+const std::string kSandAndBall =
+    test::TestDeck()
+        .simulation(2e-3, 0.1)
+        .domain(0.05)
+        .table("[geometry]", {{"type", test::quoted("box")},
+                              {"name", test::quoted("pile")},
+                              {"lo", "[0, 0, 0]"},
+                              {"hi", "[0.4, 0.3, 0.15]"}})
+        .table("[geometry]", {{"type", test::quoted("sphere")},
+                              {"name", test::quoted("ball")},
+                              {"center", "[0.2, 0.15, 0.3]"},
+                              {"radius", "0.08"}})
+        .table("[material]", {{"model", test::quoted("drucker_prager")},
+                              {"youngs_modulus", "2e5"},
+                              {"poisson_ratio", "0.3"},
+                              {"density", "1600"},
+                              {"friction_angle", "35"}})
+        .table("[material]", {{"geometry", test::quoted("ball")},
+                              {"model", test::quoted("fixed_corotated")},
+                              {"youngs_modulus", "5e4"},
+                              {"poisson_ratio", "0.35"},
+                              {"density", "1000"}})
+        .mpm()
+        .table(
+            "mpm",
+            {{"lo", "[-0.2, -0.2, -0.2]"}, {"hi", "[0.6, 0.5, 0.6]"}, {"velocity", "[0, 0, -0.5]"}})
+        .table("[boundary]", {{"type", test::quoted("surface_collider")},
+                              {"point", "[0, 0, 0]"},
+                              {"normal", "[0, 0, 1]"},
+                              {"surface", test::quoted("sticky")}});
 
 // A paste on a metal plate: the plate is a box of rest positions, the rest paste.
-const char* kPasteOnPlate = R"(
-[simulation]
-dt = 2e-3
-end_time = 0.1
-[domain]
-voxel_size = 0.05
-[[geometry]]
-type = "box"
-lo = [0.0, 0.0, 0.0]
-hi = [0.4, 0.3, 0.3]
-[[material]]
-model = "herschel_bulkley"
-youngs_modulus = 1e5
-poisson_ratio = 0.3
-density = 1200
-yield_stress = 40
-consistency = 1
-[[material]]
-lo = [-1.0, -1.0, -1.0]
-hi = [1.0, 1.0, 0.076]
-model = "von_mises"
-youngs_modulus = 2e6
-poisson_ratio = 0.3
-density = 7800
-yield_stress = 1e5
-[solver]
-method = "mpm"
-[mpm]
-lo = [-0.2, -0.2, -0.2]
-hi = [0.6, 0.5, 0.5]
-[[boundary]]
-type = "surface_collider"
-point = [0.0, 0.0, 0.0]
-normal = [0.0, 0.0, 1.0]
-surface = "separate"
-friction = 0.3
-)";
+const std::string kPasteOnPlate =
+    test::TestDeck()
+        .simulation(2e-3, 0.1)
+        .domain(0.05)
+        .box({0, 0, 0}, {0.4, 0.3, 0.3})
+        .table("[material]", {{"model", test::quoted("herschel_bulkley")},
+                              {"youngs_modulus", "1e5"},
+                              {"poisson_ratio", "0.3"},
+                              {"density", "1200"},
+                              {"yield_stress", "40"},
+                              {"consistency", "1"}})
+        .region("material", {-1, -1, -1}, {1, 1, 0.076},
+                {{"model", test::quoted("von_mises")},
+                 {"youngs_modulus", "2e6"},
+                 {"poisson_ratio", "0.3"},
+                 {"density", "7800"},
+                 {"yield_stress", "1e5"}})
+        .mpm()
+        .table("mpm", {{"lo", "[-0.2, -0.2, -0.2]"}, {"hi", "[0.6, 0.5, 0.5]"}})
+        .table("[boundary]", {{"type", test::quoted("surface_collider")},
+                              {"point", "[0, 0, 0]"},
+                              {"normal", "[0, 0, 1]"},
+                              {"surface", test::quoted("separate")},
+                              {"friction", "0.3"}});
 
-Config deck(const char* text, const std::vector<std::string>& sets = {}) {
+Config deck(const std::string& text, const std::vector<std::string>& sets = {}) {
   return parse_deck(text, "<multi>", ".", sets);
 }
 
-void expect_input_error(const char* text, const std::vector<std::string>& sets,
+void expect_input_error(const std::string& text, const std::vector<std::string>& sets,
                         const std::string& expected) {
   try {
     deck(text, sets);
@@ -156,28 +134,18 @@ TEST(MultiMaterialDeck, BadEntriesNameTheKey) {
                      "'ball' already names geometry.0");
   expect_input_error(kSandAndBall, {"material.youngs_modulus=1"}, "address one as material.INDEX");
   // The voxel solver needs one law and target, and not the Newton reference.
-  const std::string voxel = R"(
-[simulation]
-dt = 0.01
-end_time = 0.02
-[domain]
-voxel_size = 0.05
-[[geometry]]
-type = "box"
-lo = [0, 0, 0]
-hi = [0.2, 0.1, 0.1]
-[[material]]
-youngs_modulus = 1e5
-poisson_ratio = 0.3
-density = 1000
-[[material]]
-lo = [0.1, -1, -1]
-hi = [1, 1, 1]
-model = "neo_hookean"
-youngs_modulus = 1e6
-poisson_ratio = 0.3
-density = 1000
-)";
+  const std::string voxel =
+      test::TestDeck()
+          .simulation(0.01, 0.02)
+          .domain(0.05)
+          .box({0, 0, 0}, {0.2, 0.1, 0.1})
+          .table("[material]",
+                 {{"youngs_modulus", "1e5"}, {"poisson_ratio", "0.3"}, {"density", "1000"}})
+          .region("material", {0.1, -1, -1}, {1, 1, 1},
+                  {{"model", test::quoted("neo_hookean")},
+                   {"youngs_modulus", "1e6"},
+                   {"poisson_ratio", "0.3"},
+                   {"density", "1000"}});
   expect_input_error(voxel.c_str(), {}, "needs one law for every [[material]]");
   expect_input_error(voxel.c_str(), {"material.1.model=corotated", "solver.method=newton"},
                      "Newton reference takes one material");
@@ -229,7 +197,7 @@ std::vector<double> run_scene(MPI_Comm comm, const Config& cfg, int substeps) {
 
 //! Slots and masses as the deck says, and the scene bit-identical on MPI_COMM_WORLD and on one
 //! rank.
-void expect_scene(const char* text, double density0, double density1, long expected_slot1) {
+void expect_scene(const std::string& text, double density0, double density1, long expected_slot1) {
   const Config cfg = deck(text);
   constexpr int W = mpm::Particles::kRecord;
   const std::vector<double> dist = run_scene(MPI_COMM_WORLD, cfg, 25);
@@ -278,38 +246,24 @@ TEST(MultiMaterialMpm, PasteOnAMetalPlateIsBitIdenticalAcrossRankCounts) {
 // The voxel solver: a cantilever of two halves under gravity, near its static sag (implicit
 // Euler with steps far longer than its period damps the motion): the beam with a soft outer
 // half sags more than a stiff beam and less than a soft one; bit-identical across rank counts.
-const char* kTwoHalves = R"(
-[simulation]
-dt = 0.05
-end_time = 2.0
-[domain]
-voxel_size = 0.05
-padding = 0
-[[geometry]]
-type = "box"
-lo = [0.0, 0.0, 0.0]
-hi = [0.4, 0.1, 0.1]
-[[material]]
-model = "corotated"
-target = "analytic"
-youngs_modulus = 2e7
-poisson_ratio = 0.3
-density = 1000.0
-[[material]]
-lo = [0.2, -1, -1]
-hi = [1, 1, 1]
-model = "corotated"
-target = "analytic"
-youngs_modulus = 2e6
-poisson_ratio = 0.3
-density = 1000.0
-[solver]
-accuracy_tolerance = 1e-5
-max_extra_outer = 3000
-[[fixed]]
-lo = [-1.0, -1.0, -1.0]
-hi = [0.001, 1.0, 1.0]
-)";
+const std::string kTwoHalves =
+    test::TestDeck()
+        .simulation(0.05, 2.0)
+        .unpadded(0.05)
+        .box({0, 0, 0}, {0.4, 0.1, 0.1})
+        .table("[material]", {{"model", test::quoted("corotated")},
+                              {"target", test::quoted("analytic")},
+                              {"youngs_modulus", "2e7"},
+                              {"poisson_ratio", "0.3"},
+                              {"density", "1000"}})
+        .region("material", {0.2, -1, -1}, {1, 1, 1},
+                {{"model", test::quoted("corotated")},
+                 {"target", test::quoted("analytic")},
+                 {"youngs_modulus", "2e6"},
+                 {"poisson_ratio", "0.3"},
+                 {"density", "1000"}})
+        .table("solver", {{"accuracy_tolerance", "1e-5"}, {"max_extra_outer", "3000"}})
+        .clamp();
 
 //! Lowest z of the free end after `steps` steps, and the total mass (rank 0).
 std::pair<double, double> tip_and_mass(MPI_Comm comm, const Config& cfg, int steps) {

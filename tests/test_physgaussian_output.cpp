@@ -20,38 +20,23 @@
 #include "gaussians/Ply.hpp"
 #include "gaussians/Render.hpp"
 #include "gaussians/RunRender.hpp"
+#include "mpi_test_util.hpp"
 
 namespace gen4d::gaussians {
 namespace {
 
 namespace fs = std::filesystem;
 
-int rank_of(MPI_Comm c) {
-  int r = 0;
-  MPI_Comm_rank(c, &r);
-  return r;
-}
-int size_of(MPI_Comm c) {
-  int s = 1;
-  MPI_Comm_size(c, &s);
-  return s;
-}
+using test::rank_of;
+using test::size_of;
 
 //! A scratch folder shared by the ranks of this run (rank 0 empties it).
 fs::path shared_scratch(const std::string& name) {
-  const fs::path d = fs::path(GEN4D_BINARY_DIR) / "tests" / "scratch" / "physgaussian_output" /
-                     (name + "_n" + std::to_string(size_of(MPI_COMM_WORLD)));
-  if (rank_of(MPI_COMM_WORLD) == 0) {
-    fs::remove_all(d);
-    fs::create_directories(d);
-  }
-  MPI_Barrier(MPI_COMM_WORLD);
-  return d;
+  return test::scratch_dir("physgaussian_output/" + name);
 }
 
 std::string bytes(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return test::bytes_of(p.string());
 }
 
 //! `n` splats in front of a camera at the origin looking along +z, SH degree `degree` with

@@ -21,6 +21,7 @@
 #include "gaussians/Video.hpp"
 #include "../drivers/SyntheticSplats.hpp"
 #include "png_test_util.hpp"
+#include "mpi_test_util.hpp"
 
 namespace gen4d::gaussians {
 namespace {
@@ -28,16 +29,8 @@ namespace {
 namespace fs = std::filesystem;
 constexpr float kC0 = 0.28209479177387814f;
 
-int rank_of(MPI_Comm c) {
-  int r = 0;
-  MPI_Comm_rank(c, &r);
-  return r;
-}
-int size_of(MPI_Comm c) {
-  int s = 1;
-  MPI_Comm_size(c, &s);
-  return s;
-}
+using test::rank_of;
+using test::size_of;
 
 //! A scratch directory per rank and test.
 fs::path scratch(const std::string& name) {

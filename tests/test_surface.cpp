@@ -11,6 +11,7 @@
 
 #include "core/Error.hpp"
 #include "elastogen/SurfaceEmbedding.hpp"
+#include "deck_test_util.hpp"
 #include "elastogen_test_util.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/FrameReader.hpp"
@@ -23,35 +24,22 @@ namespace {
 
 using test::scratch_dir;
 
-// A 5 x 4 x 3 voxel block, clamped at x = 0 and pushed at its far end; the tests compare
-// surfaces bit for bit across rank counts.
-const char* kBlockDeck = R"(
-[simulation]
-dt = 0.01
-end_time = 0.03
-[domain]
-voxel_size = 0.02
-[[geometry]]
-type = "box"
-lo = [0.0, 0.0, 0.0]
-hi = [0.1, 0.08, 0.06]
-[material]
-youngs_modulus = 5.0e4
-poisson_ratio = 0.3
-density = 1000.0
-[solver]
-max_sweeps = 40
-[[fixed]]
-lo = [-1.0, -1.0, -1.0]
-hi = [0.001, 1.0, 1.0]
-[[force]]
-lo = [0.07, -1.0, -1.0]
-hi = [1.0, 1.0, 1.0]
-force = [0.0, 2.0, -4.0]
-[output]
-surface = "ply"
-progress_interval = 1e9
-)";
+//! A body clamped at x = 0 and pushed at its far end; the tests compare surfaces bit for bit
+//! across rank counts.
+std::string block_deck(const test::Keys& geometry) {
+  return test::TestDeck()
+      .simulation(0.01, 0.03)
+      .domain(0.02)
+      .table("[geometry]", geometry)
+      .material(5.0e4, 0.3, 1000)
+      .table("solver", {{"max_sweeps", "40"}})
+      .clamp()
+      .region("force", {0.07, -1, -1}, {1, 1, 1}, {{"force", "[0, 2, -4]"}})
+      .table("output", {{"surface", test::quoted("ply")}, {"progress_interval", "1e9"}});
+}
+//! The body as a 5 x 4 x 3 voxel block.
+const std::string kBlockDeck =
+    block_deck({{"type", test::quoted("box")}, {"lo", "[0, 0, 0]"}, {"hi", "[0.1, 0.08, 0.06]"}});
 
 Config block(const std::vector<std::string>& sets = {}) {
   return parse_deck(kBlockDeck, "<block>", ".", sets);
@@ -108,11 +96,10 @@ Config mesh_deck(const std::string& dir, const std::vector<std::string>& sets = 
   const std::string obj = dir + "/box_fin.obj";
   if (test::world_rank() == 0) std::ofstream(obj) << kBoxAndFinObj;
   MPI_Barrier(MPI_COMM_WORLD);
-  std::string deck = kBlockDeck;
-  const std::string box = "type = \"box\"\nlo = [0.0, 0.0, 0.0]\nhi = [0.1, 0.08, 0.06]\n";
-  deck.replace(
-      deck.find(box), box.size(),
-      "type = \"mesh\"\nfile = \"" + obj + "\"\nscale = 2.0\ntranslate = [0.01, -0.02, 0.03]\n");
+  const std::string deck = block_deck({{"type", test::quoted("mesh")},
+                                       {"file", test::quoted(obj)},
+                                       {"scale", "2.0"},
+                                       {"translate", "[0.01, -0.02, 0.03]"}});
   return parse_deck(deck, "<mesh>", ".", sets);
 }
 
@@ -124,24 +111,8 @@ std::array<double, 3> affine(const std::array<double, 3>& p) {
   return q;
 }
 
-//! `map` applied to the rest position of every ghosted node of the rank.
-template <class Map>
-std::vector<double> node_field(const elastogen::VoxelSystem& sys, Map map) {
-  const auto& G = sys.ghosted();
-  std::vector<double> x(3 * G.size());
-  for (long k = G.start[2]; k < G.start[2] + G.count[2]; ++k)
-    for (long j = G.start[1]; j < G.start[1] + G.count[1]; ++j)
-      for (long i = G.start[0]; i < G.start[0] + G.count[0]; ++i) {
-        const auto q = map(sys.rest_position(i, j, k));
-        for (int d = 0; d < 3; ++d) x[3 * G.index(i, j, k) + d] = q[d];
-      }
-  return x;
-}
-
-std::string bytes_of(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
+using test::bytes_of;
+using test::node_field;
 
 TEST(Surface, VoxelBoundaryOfABoxIsClosedAndOutward) {
   elastogen::Simulation sim(MPI_COMM_WORLD, block());
@@ -222,9 +193,8 @@ TEST(Surface, EmbeddedMeshReproducesRestAndAffineMotion) {
 TEST(Surface, RealMeshEmbeddingDoesNotDependOnTheDecomposition) {
   const std::string spot = std::string(GEN4D_SHARED_DIR) + "/data/meshes/spot.obj";
   if (!fs::exists(spot)) GTEST_SKIP() << spot << " not available";
-  std::string deck = kBlockDeck;
-  const std::string box = "type = \"box\"\nlo = [0.0, 0.0, 0.0]\nhi = [0.1, 0.08, 0.06]\n";
-  deck.replace(deck.find(box), box.size(), "type = \"mesh\"\nfile = \"" + spot + "\"\n");
+  const std::string deck =
+      block_deck({{"type", test::quoted("mesh")}, {"file", test::quoted(spot)}});
   const Config cfg = parse_deck(deck, "<spot>", ".", {"domain.voxel_size=0.1"});
   // A smooth non-affine motion: every vertex's 8 corners and weights matter.
   auto wave = [](const std::array<double, 3>& p) {

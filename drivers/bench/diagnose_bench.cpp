@@ -34,7 +34,9 @@
 #include <string>
 
 #include "core/Deck.hpp"
+#include "core/DeckText.hpp"
 #include "diagnose/BlockLDLT.hpp"
+#include "diagnose/Effects.hpp"
 #include "diagnose/ElementKernel.hpp"
 #include "diagnose/Model.hpp"
 #include "validation/DriverCommon.hpp"
@@ -42,33 +44,28 @@
 namespace gen4d {
 namespace {
 
-const char* kDeck = R"(
-[simulation]
-dt = 0.002
-end_time = 2
-gravity = [0, 0, -9.81]
-[domain]
-voxel_size = {voxel_size}
-padding = 1
-[[geometry]]
-type = "box"
-lo = [0, 0, 0]
-hi = [0.2, 0.04, 0.04]
-[material]
-model = "stvk"
-youngs_modulus = 5e5
-poisson_ratio = {poisson}
-density = 1000
-[[fixed]]
-lo = [-1, -1, -1]
-hi = [0.001, 1, 1]
-[[force]]
-lo = [0.195, -1, -1]
-hi = [1.2, 1, 1]
-force = [0, -0.72, -0.48]
-start = 0
-end = 0.3
-)";
+//! The acceptance cantilever of diagnose at voxel size `h` and Poisson ratio `nu`.
+Config bench_deck(double h, double nu) {
+  BeamDeck b;
+  b.dt = 0.002;
+  b.end_time = 2;
+  b.gravity = Vec3d{0, 0, -9.81};
+  b.voxel_size = h;
+  b.padding = 1;
+  b.hi = {0.2, 0.04, 0.04};
+  b.law = "stvk";
+  b.youngs_modulus = 5e5;
+  b.poisson_ratio = nu;
+  const std::string text = b.text()
+                               .array("force")
+                               .set("lo", Vec3d{0.195, -1, -1})
+                               .set("hi", Vec3d{1.2, 1, 1})
+                               .set("force", Vec3d{0, -0.72, -0.48})
+                               .set("start", 0.0)
+                               .set("end", 0.3)
+                               .str();
+  return parse_deck(text, "<diagnose bench deck>", ".", {});
+}
 
 struct Result {
   double wall = 1e300;
@@ -139,10 +136,7 @@ int main(int argc, char** argv) {
           if (std::find(ldlt.begin(), ldlt.end(), isa) != ldlt.end())
             diagnose::BlockLDLT::set_isa(isa);
         }
-        std::string deck = kDeck;
-        deck.replace(deck.find("{voxel_size}"), 12, fmt::format("{}", voxel_size));
-        deck.replace(deck.find("{poisson}"), 9, fmt::format("{}", poisson));
-        const Config cfg = parse_deck(deck, "<diagnose bench deck>", ".", {});
+        const Config cfg = bench_deck(voxel_size, poisson);
         const diagnose::VoxelModel model(cfg);
         std::vector<diagnose::ChannelRequest> req;
         const double t_end = cfg.end_time;
@@ -161,14 +155,13 @@ int main(int argc, char** argv) {
           base.newton_tolerance = nominal.newton_tolerance = newton_tolerance;
         if (refresh > 0) base.refresh_contraction = nominal.refresh_contraction = refresh;
         diagnose::Physics damped = nominal;
-        damped.rayleigh_beta = 2e-3;
+        diagnose::set_effect_terms(damped, "damping", {0, 2e-3});
         diagnose::Physics neo = nominal;
         neo.law = "neo_hookean";
         diagnose::Physics corotated = nominal;
         corotated.law = "corotated";
         diagnose::Physics plastic = nominal;
-        plastic.yield_stress = 1e4;
-        plastic.hardening = 2e4;
+        diagnose::set_effect_terms(plastic, "plasticity", {1e4, 2e4});
         auto trilinear = [](diagnose::Physics p) {
           p.element = diagnose::Element::trilinear;
           p.consistent_mass_fraction = 0;
@@ -188,7 +181,7 @@ int main(int argc, char** argv) {
           const Result o = time_run(names[k], model, trilinear(phys[k]), req, repeat);
           const std::string& law = phys[k].law;
           if ((law == "stvk" || law == "neo_hookean" || law == "corotated") &&
-              !std::isfinite(phys[k].yield_stress)) {
+              !std::isfinite(diagnose::model_terms(phys[k]).yield_stress)) {
             // The same run in the scalar element loop: the vector kernel's baseline, and
             // whether the two agree bit for bit.
             const Result sr = time_run(names[k], scalar_model, phys[k], req, repeat);

@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "core/Deck.hpp"
+#include "core/DeckText.hpp"
 #include "core/Device.hpp"
 #include "core/Log.hpp"
 #include "core/ParallelFor.hpp"
@@ -47,31 +48,14 @@ namespace {
 
 Config cube(int cells, int sweeps) {
   const double h = 1.0 / cells;
-  return parse_deck(fmt::format(R"(
-[simulation]
-dt = 0.01
-end_time = 0.01
-gravity = [0.0, 0.0, -9.81]
-[domain]
-voxel_size = {}
-padding = 0
-[[geometry]]
-type = "box"
-lo = [0.0, 0.0, 0.0]
-hi = [1.0, 1.0, 1.0]
-[material]
-youngs_modulus = 1e5
-poisson_ratio = 0.3
-density = 1000.0
-[solver]
-max_sweeps = {}
-inner_tolerance = 1e-300
-[[fixed]]
-lo = [-1.0, -1.0, -1.0]
-hi = [1.0, 1.0, {}]
-)",
-                                h, sweeps, 0.5 * h),
-                    "<bench cube>", ".");
+  BeamDeck b;
+  b.gravity = Vec3d{0, 0, -9.81};
+  b.voxel_size = h;
+  b.hi = {1, 1, 1};
+  b.youngs_modulus = 1e5;
+  b.solver.set("max_sweeps", sweeps).set("inner_tolerance", 1e-300);
+  b.fixed_hi = {1, 1, 0.5 * h};
+  return parse_deck(b.text().str(), "<bench cube>", ".");
 }
 
 //! The unfused sweep (operator pass, then update pass), timed as the in-run baseline of

@@ -53,6 +53,18 @@ struct Options {
   long device_points = 1L << 22;
   double seconds = 1.0;
   bool device = false;
+
+  //! Declares the command-line options.
+  void add(CLI::App& app) {
+    app.add_option("--weights", weights, "NeuralMTL weights file (default: random)")
+        ->check(CLI::ExistingFile);
+    app.add_option("--hidden", hidden, "Architecture of the random network");
+    app.add_option("--points", points, "Batch size")->check(CLI::Range(8L, 1L << 24));
+    app.add_option("--seconds", seconds, "Minimum time per measurement");
+    app.add_flag("--device", device, "Also time the GPU kernel (skipped without a GPU)");
+    app.add_option("--device-points", device_points, "Batch size on the GPU")
+        ->check(CLI::Range(8L, 1L << 26));
+  }
 };
 
 double now() {
@@ -237,18 +249,6 @@ int run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  Options o;
-  return driver::main_with(
-      argc, argv, "Fused NeuralMTL kernel vs LibTorch (per core, threads, ranks, GPU)",
-      [&](CLI::App& app) {
-        app.add_option("--weights", o.weights, "NeuralMTL weights file (default: random)")
-            ->check(CLI::ExistingFile);
-        app.add_option("--hidden", o.hidden, "Architecture of the random network");
-        app.add_option("--points", o.points, "Batch size")->check(CLI::Range(8L, 1L << 24));
-        app.add_option("--seconds", o.seconds, "Minimum time per measurement");
-        app.add_flag("--device", o.device, "Also time the GPU kernel (skipped without a GPU)");
-        app.add_option("--device-points", o.device_points, "Batch size on the GPU")
-            ->check(CLI::Range(8L, 1L << 26));
-      },
-      [&] { return run(o); });
+  return driver::main_with_options<Options>(
+      argc, argv, "Fused NeuralMTL kernel vs LibTorch (per core, threads, ranks, GPU)", run);
 }

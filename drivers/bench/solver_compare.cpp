@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "core/Deck.hpp"
+#include "core/DeckText.hpp"
 #include "core/Log.hpp"
 #include "core/ParallelFor.hpp"
 #include "elastogen/Simulation.hpp"
@@ -36,38 +37,31 @@ struct Options {
   int frames = 20;
   double accuracy = 0.01;
   std::string relaxation = "jacobi";  //!< ElastoGen's global-step sweeps
+
+  //! Declares the command-line options.
+  void add(CLI::App& app) {
+    app.add_option("--cells", cells, "Voxels through the beam's thickness (length: 5x)")
+        ->check(CLI::Range(2, 400));
+    app.add_option("--frames", frames, "Frames (steps of 0.01 s)")->check(CLI::Range(1, 10000));
+    app.add_option("--accuracy", accuracy, "Tip error ElastoGen must reach vs Newton");
+    app.add_option("--relaxation", relaxation, "ElastoGen's sweeps: jacobi or chebyshev")
+        ->check(CLI::IsMember({"jacobi", "chebyshev"}));
+  }
 };
 
 Config beam(const Options& o, const std::string& method, double accuracy_tolerance) {
-  return parse_deck(
-      fmt::format(R"(
-[simulation]
-dt = 0.01
-end_time = {}
-[domain]
-voxel_size = {}
-padding = 0
-[[geometry]]
-type = "box"
-lo = [0.0, 0.0, 0.0]
-hi = [1.0, 0.2, 0.2]
-[material]
-model = "corotated"
-target = "analytic"
-youngs_modulus = 1.0e7
-poisson_ratio = 0.3
-density = 1000.0
-[solver]
-method = "{}"
-relaxation = "{}"
-accuracy_tolerance = {}
-max_extra_outer = 1000
-[[fixed]]
-lo = [-1.0, -1.0, -1.0]
-hi = [0.001, 1.0, 1.0]
-)",
-                  0.01 * o.frames, 0.2 / o.cells, method, o.relaxation, accuracy_tolerance),
-      "<bench beam>", ".");
+  BeamDeck b;
+  b.end_time = 0.01 * o.frames;
+  b.voxel_size = 0.2 / o.cells;
+  b.hi = {1.0, 0.2, 0.2};
+  b.law = "fixed_corotated";
+  b.target = "analytic";
+  b.youngs_modulus = 1e7;
+  b.method = method;
+  b.solver.set("relaxation", o.relaxation)
+      .set("accuracy_tolerance", accuracy_tolerance)
+      .set("max_extra_outer", 1000);
+  return parse_deck(b.text().str(), "<bench beam>", ".");
 }
 
 struct Run {
@@ -148,17 +142,6 @@ int run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  Options o;
-  return driver::main_with(
-      argc, argv, "Time per frame: ElastoGen vs Newton reference at equal accuracy",
-      [&](CLI::App& app) {
-        app.add_option("--cells", o.cells, "Voxels through the beam's thickness (length: 5x)")
-            ->check(CLI::Range(2, 400));
-        app.add_option("--frames", o.frames, "Frames (steps of 0.01 s)")
-            ->check(CLI::Range(1, 10000));
-        app.add_option("--accuracy", o.accuracy, "Tip error ElastoGen must reach vs Newton");
-        app.add_option("--relaxation", o.relaxation, "ElastoGen's sweeps: jacobi or chebyshev")
-            ->check(CLI::IsMember({"jacobi", "chebyshev"}));
-      },
-      [&] { return run(o); });
+  return driver::main_with_options<Options>(
+      argc, argv, "Time per frame: ElastoGen vs Newton reference at equal accuracy", run);
 }

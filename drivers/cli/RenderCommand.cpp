@@ -25,6 +25,7 @@
 #include "gaussians/Kinematics.hpp"
 #include "gaussians/Ply.hpp"
 #include "gaussians/Render.hpp"
+#include "SplatBlock.hpp"
 
 namespace gen4d::cli {
 
@@ -127,19 +128,8 @@ int RenderCommand::run() const {
     camera = orbit.at_frame(0);
   }
 
-  // This rank's block of the splats.
-  const std::size_t n = set.size();
-  const std::size_t lo = n * static_cast<std::size_t>(rank) / static_cast<std::size_t>(ranks);
-  const std::size_t hi = n * static_cast<std::size_t>(rank + 1) / static_cast<std::size_t>(ranks);
-  gaussians::SplatSet mine;
-  mine.sh_degree = set.sh_degree;
-  const std::size_t k = 3 * static_cast<std::size_t>(set.coefficients());
-  mine.position.assign(set.position.begin() + 3 * lo, set.position.begin() + 3 * hi);
-  mine.scale.assign(set.scale.begin() + 3 * lo, set.scale.begin() + 3 * hi);
-  mine.rotation.assign(set.rotation.begin() + 4 * lo, set.rotation.begin() + 4 * hi);
-  mine.opacity.assign(set.opacity.begin() + lo, set.opacity.begin() + hi);
-  mine.sh.assign(set.sh.begin() + k * lo, set.sh.begin() + k * hi);
-  const gaussians::SplatFrame frame = gaussians::rest_frame(mine);
+  const gaussians::SplatFrame frame =
+      gaussians::rest_frame(driver::rank_share(MPI_COMM_WORLD, set));
 
   gaussians::RenderOptions opt;
   opt.background = {static_cast<float>(bg[0]), static_cast<float>(bg[1]),
@@ -151,7 +141,7 @@ int RenderCommand::run() const {
     const double secs =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     log::info("wrote {} ({}x{}, {} splats, SH degree {}, {} rank(s), {:.2f} s)", s.out, img.width,
-              img.height, n, set.sh_degree, ranks, secs);
+              img.height, set.size(), set.sh_degree, ranks, secs);
   }
   return 0;
 }

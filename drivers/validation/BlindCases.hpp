@@ -12,6 +12,7 @@
 #include <fstream>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/Config.hpp"
@@ -34,6 +35,34 @@ inline void write_atomic(const std::filesystem::path& path, const std::string& t
 
 inline std::string json_number(double v) {
   return fmt::format("{:.9g}", v);
+}
+
+//! Whether case `name` is generated: --only (`only`) is empty or names it.
+inline bool wanted(const std::vector<std::string>& only, const std::string& name) {
+  return only.empty() || std::find(only.begin(), only.end(), name) != only.end();
+}
+
+//! Throws InputError for a name in --only (`only`) that none of `cases` has.
+template <class Case>
+void check_only(const std::vector<Case>& cases, const std::vector<std::string>& only) {
+  for (const auto& name : only)
+    if (std::none_of(cases.begin(), cases.end(), [&](const Case& c) { return c.name == name; }))
+      throw InputError(fmt::format("--only: unknown case '{}'", name));
+}
+
+//! The members `"k": v, ...` of a JSON object (without the braces).
+inline std::string json_members(const std::vector<std::pair<std::string, double>>& kv) {
+  std::string s;
+  for (const auto& [k, v] : kv)
+    s += fmt::format("{}\"{}\": {}", s.empty() ? "" : ", ", k, json_number(v));
+  return s;
+}
+
+//! The elements `"a", "b", ...` of a JSON array of strings (without the brackets).
+inline std::string json_strings(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& e : v) s += fmt::format("{}\"{}\"", s.empty() ? "" : ", ", e);
+  return s;
 }
 
 //! Sample times k / rate for k = 0 .. end * rate, each jittered by up to 0.2 / rate (uniform,

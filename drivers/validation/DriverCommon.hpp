@@ -8,7 +8,13 @@
 
 #include <CLI/CLI.hpp>
 #include <exception>
+#include <algorithm>
 #include <functional>
+#include <initializer_list>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "core/Error.hpp"
 #include "core/Log.hpp"
@@ -53,6 +59,48 @@ inline int main_with(int argc, char** argv, const char* description,
   PetscFinalize();
   MPI_Finalize();
   return code;
+}
+
+//! The comma-separated numbers that `option` (e.g. "--ratios") was given; an entry that is
+//! not a number is an InputError naming it.
+inline std::vector<double> number_list(const std::string& text, const std::string& option) {
+  std::vector<double> v;
+  std::stringstream ss(text);
+  for (std::string s; std::getline(ss, s, ',');) {
+    try {
+      v.push_back(std::stod(s));
+    } catch (const std::exception&) {
+      throw InputError(option + ": '" + s + "' is not a number");
+    }
+  }
+  return v;
+}
+
+//! Lowers each value to its cap (what a driver's --quick does to its sizes).
+inline void cap(std::initializer_list<std::pair<int*, int>> caps) {
+  for (const auto& [value, most] : caps) *value = std::min(*value, most);
+}
+
+//! Where a driver's body runs: on every rank, or on rank 0 alone (serial work; every rank
+//! returns rank 0's exit code).
+enum Ranks { AllRanks, RankZero };
+
+//! main_with for a driver whose options are a struct `O` declaring them in
+//! `void add(CLI::App&)`: parses into a default `O` and returns `run(o)`.
+template <class O>
+int main_with_options(int argc, char** argv, const char* description, int (*run)(const O&),
+                      Ranks ranks = AllRanks) {
+  O o;
+  return main_with(
+      argc, argv, description, [&](CLI::App& app) { o.add(app); },
+      [&] {
+        if (ranks == AllRanks) return run(o);
+        int rank = 0;
+        MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+        int code = rank == 0 ? run(o) : 0;
+        MPI_Bcast(&code, 1, MPI_INT, 0, MPI_COMM_WORLD);
+        return code;
+      });
 }
 
 //! Mean position component `d` of the object's nodes on the grid plane i = last (the free

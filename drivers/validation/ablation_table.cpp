@@ -47,6 +47,25 @@ struct Options {
   ablation::Subdivision sub;
   std::vector<std::string> objects = {"donut", "ellipsoid_shell", "torus_knot"};
   bool quick = false;
+
+  //! Declares the command-line options.
+  void add(CLI::App& app) {
+    app.add_option("--splats", splats, "3DGS PLY of the trained object")->check(CLI::ExistingFile);
+    app.add_option("--out", out, "Output folder");
+    app.add_option("--width", width, "Image width")->check(CLI::PositiveNumber);
+    app.add_option("--height", height, "Image height")->check(CLI::PositiveNumber);
+    app.add_option("--cameras", cameras, "Orbit cameras")->check(CLI::PositiveNumber);
+    app.add_option("--synthetic", synthetic, "Gaussians per synthetic object")
+        ->check(CLI::PositiveNumber);
+    app.add_option("--bend-degrees", bend, "Bend angle over the longest extent");
+    app.add_option("--twist-degrees", twist, "Twist angle over the longest extent");
+    app.add_option("--alpha", sub.alpha, "Truth: small / parent standard deviation");
+    app.add_option("--count", sub.count, "Truth: small Gaussians per group (even, >= 6)");
+    app.add_option("--components", sub.components, "Truth: groups per parent");
+    app.add_option("--objects", objects, "Objects: donut, ellipsoid_shell, torus_knot")
+        ->delimiter(',');
+    app.add_flag("--quick", quick, "4 cameras at 160 x 120, 1000 synthetic Gaussians");
+  }
 };
 
 struct Row {
@@ -57,7 +76,10 @@ struct Row {
   bool pass = false;
 };
 
-int run(const Options& o) {
+int run(const Options& asked) {
+  Options o = asked;
+  if (o.quick)
+    driver::cap({{&o.width, 160}, {&o.height, 120}, {&o.cameras, 4}, {&o.synthetic, 1000}});
   int rank = 0, ranks = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &ranks);
@@ -152,35 +174,6 @@ int run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  Options o;
-  return driver::main_with(
-      argc, argv, "The seed's ablation table: full Gaussian kinematics against its ablations",
-      [&](CLI::App& app) {
-        app.add_option("--splats", o.splats, "3DGS PLY of the trained object")
-            ->check(CLI::ExistingFile);
-        app.add_option("--out", o.out, "Output folder");
-        app.add_option("--width", o.width, "Image width")->check(CLI::PositiveNumber);
-        app.add_option("--height", o.height, "Image height")->check(CLI::PositiveNumber);
-        app.add_option("--cameras", o.cameras, "Orbit cameras")->check(CLI::PositiveNumber);
-        app.add_option("--synthetic", o.synthetic, "Gaussians per synthetic object")
-            ->check(CLI::PositiveNumber);
-        app.add_option("--bend-degrees", o.bend, "Bend angle over the longest extent");
-        app.add_option("--twist-degrees", o.twist, "Twist angle over the longest extent");
-        app.add_option("--alpha", o.sub.alpha, "Truth: small / parent standard deviation");
-        app.add_option("--count", o.sub.count, "Truth: small Gaussians per group (even, >= 6)");
-        app.add_option("--components", o.sub.components, "Truth: groups per parent");
-        app.add_option("--objects", o.objects, "Objects: donut, ellipsoid_shell, torus_knot")
-            ->delimiter(',');
-        app.add_flag("--quick", o.quick, "4 cameras at 160 x 120, 1000 synthetic Gaussians");
-      },
-      [&] {
-        Options q = o;
-        if (q.quick) {
-          q.width = std::min(q.width, 160);
-          q.height = std::min(q.height, 120);
-          q.cameras = std::min(q.cameras, 4);
-          q.synthetic = std::min(q.synthetic, 1000);
-        }
-        return run(q);
-      });
+  return driver::main_with_options<Options>(
+      argc, argv, "The seed's ablation table: full Gaussian kinematics against its ablations", run);
 }

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "core/Deck.hpp"
+#include "core/DeckText.hpp"
 #include "core/Error.hpp"
 #include "core/Log.hpp"
 #include "elastogen/Simulation.hpp"
@@ -43,43 +44,47 @@ struct Options {
   double tolerance = 0.03;
   bool skip_static = false, skip_frequency = false;
   std::string csv;
+
+  //! Declares the command-line options.
+  void add(CLI::App& app) {
+    app.add_option("--static-levels", static_levels,
+                   "Voxels through the thickness for the static study, coarse to fine")
+        ->delimiter(',')
+        ->check(CLI::Range(1, 64));
+    app.add_option("--frequency-levels", frequency_levels,
+                   "Voxels through the thickness for the frequency study")
+        ->delimiter(',')
+        ->check(CLI::Range(1, 64));
+    app.add_option("--tolerance", tolerance, "Allowed |error| at the finest level");
+    app.add_flag("--skip-static", skip_static, "Skip the static deflection study");
+    app.add_flag("--skip-frequency", skip_frequency, "Skip the frequency study");
+    app.add_option("--csv", csv, "Write the table to this CSV file");
+  }
 };
 
 Config beam_deck(int n, double dt, double end_time, double load_end, const std::string& method,
-                 const std::string& relaxation, const std::string& extra) {
+                 const std::string& relaxation, const DeckText& extra) {
   const double h = kH / n;
-  const std::string text = fmt::format(R"(
-[simulation]
-dt = {}
-end_time = {}
-gravity = [0.0, 0.0, 0.0]
-[domain]
-voxel_size = {}
-padding = 0
-[[geometry]]
-type = "box"
-lo = [0.0, 0.0, 0.0]
-hi = [{}, {}, {}]
-[material]
-target = "analytic"
-youngs_modulus = {}
-poisson_ratio = 0.0
-density = {}
-[solver]
-method = "{}"
-relaxation = "{}"
-{}
-[[fixed]]
-lo = [-1.0, -1.0, -1.0]
-hi = [{}, 1.0, 1.0]
-[[force]]
-lo = [{}, -1.0, -1.0]
-hi = [1.0, 1.0, 1.0]
-force = [0.0, 0.0, {}]
-end = {}
-)",
-                                       dt, end_time, h, kL, kH, kH, kE, kRho, method, relaxation,
-                                       extra, 0.1 * h, kL - 0.1 * h, -kLoad, load_end);
+  BeamDeck b;
+  b.dt = dt;
+  b.end_time = end_time;
+  b.gravity = Vec3d{0, 0, 0};
+  b.voxel_size = h;
+  b.hi = {kL, kH, kH};
+  b.target = "analytic";
+  b.youngs_modulus = kE;
+  b.poisson_ratio = 0;
+  b.density = kRho;
+  b.method = method;
+  b.solver.set("relaxation", relaxation).append(extra);
+  b.fixed_hi = {0.1 * h, 1, 1};
+  const std::string text = b.text()
+                               .array("force")
+                               .set("lo", Vec3d{kL - 0.1 * h, -1, -1})
+                               .set("hi", Vec3d{1, 1, 1})
+                               .set("force", Vec3d{0, 0, -kLoad})
+                               .set("end", load_end)
+                               .str();
   return parse_deck(text, fmt::format("<beam H/{}>", n), ".");
 }
 
@@ -90,9 +95,13 @@ struct StaticResult {
 };
 
 StaticResult static_deflection(int n, const std::string& method) {
-  const std::string extra =
-      "max_sweeps = 50000\ninner_tolerance = 1e-4\nmax_outer = 50000\nmax_extra_outer = 50000\n"
-      "outer_tolerance = 1e-6\naccuracy_tolerance = 1e-3";
+  DeckText extra;
+  extra.set("max_sweeps", 50000)
+      .set("inner_tolerance", 1e-4)
+      .set("max_outer", 50000)
+      .set("max_extra_outer", 50000)
+      .set("outer_tolerance", 1e-6)
+      .set("accuracy_tolerance", 1e-3);
   const Config cfg = beam_deck(n, 1e4, 1e4, 1e300, method, "cg", extra);
   log::set_quiet(true);
   elastogen::Simulation sim(MPI_COMM_WORLD, cfg);
@@ -120,8 +129,9 @@ struct FrequencyResult {
 FrequencyResult bending_frequency(int n, double f_eb) {
   const double dt = 1.0 / f_eb / 100.0, push = 0.05;
   const long steps = static_cast<long>(std::ceil((2.3 / f_eb + push) / dt));
-  const Config cfg = beam_deck(n, dt, steps * dt, push, "elastogen", "jacobi",
-                               "accuracy_tolerance = 1e-4\nmax_extra_outer = 1000");
+  DeckText extra;
+  extra.set("accuracy_tolerance", 1e-4).set("max_extra_outer", 1000);
+  const Config cfg = beam_deck(n, dt, steps * dt, push, "elastogen", "jacobi", extra);
   log::set_quiet(true);
   elastogen::Simulation sim(MPI_COMM_WORLD, cfg);
   log::set_quiet(false);
@@ -257,22 +267,7 @@ int run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  Options o;
-  return driver::main_with(
+  return driver::main_with_options<Options>(
       argc, argv, "ElastoGen vs beam theory: static deflection and bending frequency, grid study",
-      [&](CLI::App& app) {
-        app.add_option("--static-levels", o.static_levels,
-                       "Voxels through the thickness for the static study, coarse to fine")
-            ->delimiter(',')
-            ->check(CLI::Range(1, 64));
-        app.add_option("--frequency-levels", o.frequency_levels,
-                       "Voxels through the thickness for the frequency study")
-            ->delimiter(',')
-            ->check(CLI::Range(1, 64));
-        app.add_option("--tolerance", o.tolerance, "Allowed |error| at the finest level");
-        app.add_flag("--skip-static", o.skip_static, "Skip the static deflection study");
-        app.add_flag("--skip-frequency", o.skip_frequency, "Skip the frequency study");
-        app.add_option("--csv", o.csv, "Write the table to this CSV file");
-      },
-      [&] { return run(o); });
+      run);
 }

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "core/Deck.hpp"
+#include "core/DeckText.hpp"
 #include "core/Error.hpp"
 #include "core/Log.hpp"
 #include "elastogen/Simulation.hpp"
@@ -42,6 +43,25 @@ struct Options {
   std::string weights;  // pattern with {model} and {nu}; empty: generated
   std::vector<std::string> models = {"corotated", "neo_hookean", "stvk"};
   std::vector<double> nus = {0.20, 0.30, 0.45};
+
+  //! Declares the command-line options.
+  void add(CLI::App& app) {
+    app.add_option("--steps", steps, "Time steps of 0.01 s")->check(CLI::Range(1, 100000));
+    app.add_option("--voxel", voxel, "Voxel size in metres")->check(CLI::PositiveNumber);
+    app.add_option("--youngs", youngs, "Young's modulus in Pa")->check(CLI::PositiveNumber);
+    app.add_option("--tolerance", tolerance, "Allowed max error / max tip displacement");
+    app.add_option("--csv", csv, "Write tip trajectories to this CSV file");
+    app.add_option("--models", models, "Material laws to run")
+        ->delimiter(',')
+        ->check(CLI::IsMember({"corotated", "neo_hookean", "stvk"}));
+    app.add_option("--nus", nus, "Poisson ratios to run")
+        ->delimiter(',')
+        ->check(CLI::Range(0.0, 0.499));
+    app.add_flag("--neural", neural, "Also run ElastoGen with NeuralMTL targets");
+    app.add_option("--weights", weights,
+                   "NeuralMTL weight files, a pattern with {model} and {nu} (e.g. "
+                   "\"mtl/{model}_{nu}.h5\", nu printed as 0.20); default: generated");
+  }
 };
 
 std::string weight_file(const Options& o, const std::string& model, double nu) {
@@ -52,35 +72,17 @@ std::string weight_file(const Options& o, const std::string& model, double nu) {
 
 Config beam_deck(const Options& o, const std::string& model, double nu, const std::string& method,
                  const std::string& target = "analytic") {
-  std::string neural;
+  BeamDeck b;
+  b.end_time = 0.01 * o.steps;
+  b.voxel_size = o.voxel;
+  b.law = model;
+  b.target = target;
   if (target == "neural" && !o.weights.empty())
-    neural = fmt::format("neural_weights = \"{}\"\n", weight_file(o, model, nu));
-  const std::string text =
-      fmt::format(R"(
-[simulation]
-dt = 0.01
-end_time = {}
-[domain]
-voxel_size = {}
-padding = 0
-[[geometry]]
-type = "box"
-lo = [0.0, 0.0, 0.0]
-hi = [0.5, 0.1, 0.1]
-[material]
-model = "{}"
-target = "{}"
-{}youngs_modulus = {}
-poisson_ratio = {}
-density = 1000.0
-[solver]
-method = "{}"
-[[fixed]]
-lo = [-1.0, -1.0, -1.0]
-hi = [0.001, 1.0, 1.0]
-)",
-                  0.01 * o.steps, o.voxel, model, target, neural, o.youngs, nu, method);
-  return parse_deck(text, "<cantilever " + model + ">", ".");
+    b.material.set("neural_weights", weight_file(o, model, nu));
+  b.youngs_modulus = o.youngs;
+  b.poisson_ratio = nu;
+  b.method = method;
+  return parse_deck(b.text().str(), "<cantilever " + model + ">", ".");
 }
 
 double tip_z(elastogen::Simulation& sim) {
@@ -166,25 +168,7 @@ int run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  Options o;
-  return driver::main_with(
+  return driver::main_with_options<Options>(
       argc, argv, "ElastoGen vs Newton reference: cantilever under gravity, 3 materials x 3 nu",
-      [&](CLI::App& app) {
-        app.add_option("--steps", o.steps, "Time steps of 0.01 s")->check(CLI::Range(1, 100000));
-        app.add_option("--voxel", o.voxel, "Voxel size in metres")->check(CLI::PositiveNumber);
-        app.add_option("--youngs", o.youngs, "Young's modulus in Pa")->check(CLI::PositiveNumber);
-        app.add_option("--tolerance", o.tolerance, "Allowed max error / max tip displacement");
-        app.add_option("--csv", o.csv, "Write tip trajectories to this CSV file");
-        app.add_option("--models", o.models, "Material laws to run")
-            ->delimiter(',')
-            ->check(CLI::IsMember({"corotated", "neo_hookean", "stvk"}));
-        app.add_option("--nus", o.nus, "Poisson ratios to run")
-            ->delimiter(',')
-            ->check(CLI::Range(0.0, 0.499));
-        app.add_flag("--neural", o.neural, "Also run ElastoGen with NeuralMTL targets");
-        app.add_option("--weights", o.weights,
-                       "NeuralMTL weight files, a pattern with {model} and {nu} (e.g. "
-                       "\"mtl/{model}_{nu}.h5\", nu printed as 0.20); default: generated");
-      },
-      [&] { return run(o); });
+      run);
 }

@@ -40,6 +40,7 @@
 #include <vector>
 
 #include "core/Deck.hpp"
+#include "core/DeckText.hpp"
 #include "core/Error.hpp"
 #include "core/Log.hpp"
 #include "elastogen/Simulation.hpp"
@@ -55,42 +56,48 @@ struct Options {
   double outer_tolerance = 1e-4;
   int max_outer = 500, plain_cap = 5000, anderson = 5;
   std::string csv;
+
+  //! Declares the command-line options.
+  void add(CLI::App& app) {
+    app.add_option("--steps", steps, "Time steps")->check(CLI::Range(1, 100000));
+    app.add_option("--dt", dt, "Time step in seconds")->check(CLI::PositiveNumber);
+    app.add_option("--voxel", voxel, "Voxel size in metres")->check(CLI::PositiveNumber);
+    app.add_option("--youngs", youngs, "Young's modulus in Pa")->check(CLI::PositiveNumber);
+    app.add_option("--twist", twist_deg, "Total twist of the free end over the run, degrees");
+    app.add_option("--max-outer", max_outer, "Outer (RNN-1) loops per step at most")
+        ->check(CLI::Range(1, 1000000));
+    app.add_option("--outer-tolerance", outer_tolerance,
+                   "RNN-1 stops when the relative change of x falls below this")
+        ->check(CLI::PositiveNumber);
+    app.add_option("--plain-cap", plain_cap, "Most loops tried for plain Jacobi")
+        ->check(CLI::Range(50, 1000000));
+    app.add_option("--anderson", anderson, "Anderson depth of the outer loop (0 = off)")
+        ->check(CLI::Range(0, 16));
+    app.add_option("--tolerance", tolerance, "Allowed error of K = 18 Jacobi at 50 loops");
+    app.add_option("--csv", csv, "Write the table to this CSV file");
+  }
 };
 
 Config beam_deck(const Options& o, const std::string& method) {
   // Beam 0.5 x 0.1 x 0.1 m along x; x = 0 clamped, x = 0.5 turned about the beam axis by
   // twist_deg over the run; under gravity.
   const double omega = o.twist_deg * M_PI / 180.0 / (o.steps * o.dt);
-  const std::string text = fmt::format(R"(
-[simulation]
-dt = {}
-end_time = {}
-gravity = [0.0, 0.0, -9.81]
-[domain]
-voxel_size = {}
-padding = 0
-[[geometry]]
-type = "box"
-lo = [0.0, 0.0, 0.0]
-hi = [0.5, 0.1, 0.1]
-[material]
-model = "neo_hookean"
-target = "analytic"
-youngs_modulus = {}
-poisson_ratio = 0.3
-density = 1000.0
-[solver]
-method = "{}"
-[[fixed]]
-lo = [-1.0, -1.0, -1.0]
-hi = [0.001, 1.0, 1.0]
-[[kinematic]]
-lo = [0.499, -1.0, -1.0]
-hi = [1.0, 1.0, 1.0]
-center = [0.5, 0.05, 0.05]
-angular_velocity = [{}, 0.0, 0.0]
-)",
-                                       o.dt, o.dt * o.steps, o.voxel, o.youngs, method, omega);
+  BeamDeck b;
+  b.dt = o.dt;
+  b.end_time = o.dt * o.steps;
+  b.gravity = Vec3d{0, 0, -9.81};
+  b.voxel_size = o.voxel;
+  b.law = "stable_neo_hookean";
+  b.target = "analytic";
+  b.youngs_modulus = o.youngs;
+  b.method = method;
+  const std::string text = b.text()
+                               .array("kinematic")
+                               .set("lo", Vec3d{0.499, -1, -1})
+                               .set("hi", Vec3d{1, 1, 1})
+                               .set("center", Vec3d{0.5, 0.05, 0.05})
+                               .set("angular_velocity", Vec3d{omega, 0, 0})
+                               .str();
   return parse_deck(text, "<twisted beam " + method + ">", ".");
 }
 
@@ -220,26 +227,6 @@ int run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  Options o;
-  return driver::main_with(
-      argc, argv, "ElastoGen vs Newton reference: error vs relaxation loops, twisted beam",
-      [&](CLI::App& app) {
-        app.add_option("--steps", o.steps, "Time steps")->check(CLI::Range(1, 100000));
-        app.add_option("--dt", o.dt, "Time step in seconds")->check(CLI::PositiveNumber);
-        app.add_option("--voxel", o.voxel, "Voxel size in metres")->check(CLI::PositiveNumber);
-        app.add_option("--youngs", o.youngs, "Young's modulus in Pa")->check(CLI::PositiveNumber);
-        app.add_option("--twist", o.twist_deg, "Total twist of the free end over the run, degrees");
-        app.add_option("--max-outer", o.max_outer, "Outer (RNN-1) loops per step at most")
-            ->check(CLI::Range(1, 1000000));
-        app.add_option("--outer-tolerance", o.outer_tolerance,
-                       "RNN-1 stops when the relative change of x falls below this")
-            ->check(CLI::PositiveNumber);
-        app.add_option("--plain-cap", o.plain_cap, "Most loops tried for plain Jacobi")
-            ->check(CLI::Range(50, 1000000));
-        app.add_option("--anderson", o.anderson, "Anderson depth of the outer loop (0 = off)")
-            ->check(CLI::Range(0, 16));
-        app.add_option("--tolerance", o.tolerance, "Allowed error of K = 18 Jacobi at 50 loops");
-        app.add_option("--csv", o.csv, "Write the table to this CSV file");
-      },
-      [&] { return run(o); });
+  return driver::main_with_options<Options>(
+      argc, argv, "ElastoGen vs Newton reference: error vs relaxation loops, twisted beam", run);
 }

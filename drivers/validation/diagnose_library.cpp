@@ -123,6 +123,15 @@ struct Options {
   std::string out, set = "full";
   unsigned seed = 1;
   std::vector<std::string> only;
+
+  //! Declares the command-line options.
+  void add(CLI::App& app) {
+    app.add_option("--out", out, "Output folder (cases.json and one folder per case)")->required();
+    app.add_option("--set", set, "small (10x2x2 voxels, 1 s) or full (20x4x4, 2 s)")
+        ->check(CLI::IsMember({"small", "full"}));
+    app.add_option("--seed", seed, "Random seed (E factors, markers, sample times, noise)");
+    app.add_option("--only", only, "Generate only these cases")->take_all();
+  }
 };
 
 int generate(const Options& o) {
@@ -218,17 +227,14 @@ int generate(const Options& o) {
        {"height", "friction"},
        "ground plane at 0.7 of the tip's lowest point"},
   };
-  for (const auto& name : o.only)
-    if (std::none_of(cases.begin(), cases.end(), [&](const Case& c) { return c.name == name; }))
-      throw InputError(fmt::format("--only: unknown case '{}'", name));
+  driver::check_only(cases, o.only);
 
   fs::create_directories(o.out);
   std::string listing;
   for (const Case& c : cases) {
     const double E_factor = 0.9 + 0.2 * uni(rng);  // drawn for every case: subsets agree
     const unsigned noise_seed = static_cast<unsigned>(rng());
-    if (!o.only.empty() && std::find(o.only.begin(), o.only.end(), c.name) == o.only.end())
-      continue;
+    if (!driver::wanted(o.only, c.name)) continue;
     // The effect as diagnose's library applies it (the parameters in its order).
     diagnose::Physics ph = nominal;
     if (!c.effect.empty()) {
@@ -250,10 +256,8 @@ int generate(const Options& o) {
     const double E_nom = b.E * E_factor;
     diagnose::write_recording_csv(rec, (dir / "recording.csv").string());
     write_atomic(dir / "deck.toml", deck_text(b, c.name, E_nom));
-    std::string params, scored;
-    for (const auto& [k, v] : c.params)
-      params += fmt::format("{}\"{}\": {}", params.empty() ? "" : ", ", k, json_number(v));
-    for (const auto& s : c.scored) scored += fmt::format("{}\"{}\"", scored.empty() ? "" : ", ", s);
+    const std::string params = driver::json_members(c.params),
+                      scored = driver::json_strings(c.scored);
     const bool detectable = c.effect.empty() || snr >= 3.0;
     const std::string effect = c.effect.empty() ? "null" : "\"" + c.effect + "\"";
     write_atomic(
@@ -282,21 +286,8 @@ int generate(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  Options o;
-  return driver::main_with(
+  return driver::main_with_options<Options>(
       argc, argv,
       "Blind recordings of the diagnose effects CalculiX cannot make, from gen4d's voxels at h/2",
-      [&](CLI::App& app) {
-        app.add_option("--out", o.out, "Output folder (cases.json and one folder per case)")
-            ->required();
-        app.add_option("--set", o.set, "small (10x2x2 voxels, 1 s) or full (20x4x4, 2 s)")
-            ->check(CLI::IsMember({"small", "full"}));
-        app.add_option("--seed", o.seed, "Random seed (E factors, markers, sample times, noise)");
-        app.add_option("--only", o.only, "Generate only these cases")->take_all();
-      },
-      [&]() {
-        int rank = 0;
-        MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-        return rank == 0 ? generate(o) : 0;
-      });
+      generate, driver::RankZero);
 }

@@ -162,6 +162,13 @@ struct Options {
   std::string out;
   unsigned seed = 1;
   std::vector<std::string> only;
+
+  //! Declares the command-line options.
+  void add(CLI::App& app) {
+    app.add_option("--out", out, "Output folder (cases.json and one folder per case)")->required();
+    app.add_option("--seed", seed, "Random seed (E factors, markers, sample times, noise)");
+    app.add_option("--only", only, "Generate only these cases")->take_all();
+  }
 };
 
 int generate(const Options& o) {
@@ -217,18 +224,17 @@ int generate(const Options& o) {
        {"friction_accel"},
        "dry friction 0.5 m/s^2 opposing every particle's velocity (not the floor's)"},
   };
-  for (const auto& name : o.only)
-    if (std::none_of(cases.begin(), cases.end(), [&](const Case& c) { return c.name == name; }))
-      throw InputError(fmt::format("--only: unknown case '{}'", name));
+  driver::check_only(cases, o.only);
   fs::create_directories(o.out);
   std::string listing;
   // Scenes in this order, so that a later scene's cases leave the earlier ones' draws alone.
   for (const std::string scene_name : {"slide", "strike", "drift"}) {
     const Scene s = scene(scene_name);
-    bool wanted = o.only.empty();
+    bool scene_wanted = o.only.empty();
     for (const auto& c : cases)
-      wanted = wanted || (c.scene == scene_name &&
-                          std::find(o.only.begin(), o.only.end(), c.name) != o.only.end());
+      scene_wanted =
+          scene_wanted || (c.scene == scene_name &&
+                           std::find(o.only.begin(), o.only.end(), c.name) != o.only.end());
     // The recording's model: cells of h/2 (and so half the substep), the true E.
     Config fine = parse_deck(deck_text(s, "truth", s.E), "<mpm truth deck>", ".", {});
     fine.voxel_size = 0.5 * s.h;
@@ -255,7 +261,7 @@ int generate(const Options& o) {
     const std::vector<double> times = driver::jittered_times(s.end_time, kRate, rng);
     std::vector<diagnose::ChannelRequest> req;
     for (const Vec3d& X : markers) req.push_back({model.attach(X), false, times});
-    if (!wanted) {
+    if (!scene_wanted) {
       for (const auto& c : cases)  // keep the draws of the other scene's cases
         if (c.scene == scene_name) uni(rng), rng();
       continue;
@@ -281,8 +287,7 @@ int generate(const Options& o) {
       if (c.scene != scene_name) continue;
       const double E_factor = 0.9 + 0.2 * uni(rng);
       const unsigned noise_seed = static_cast<unsigned>(rng());
-      if (!o.only.empty() && std::find(o.only.begin(), o.only.end(), c.name) == o.only.end())
-        continue;
+      if (!driver::wanted(o.only, c.name)) continue;
       diagnose::Physics ph = nominal;
       std::vector<std::pair<std::string, double>> params = c.params;
       if (c.effect == "plasticity") {
@@ -310,21 +315,18 @@ int generate(const Options& o) {
       const double E_nom = s.E * E_factor;
       diagnose::write_recording_csv(rec, (dir / "recording.csv").string());
       write_atomic(dir / "deck.toml", deck_text(s, c.name, E_nom));
-      std::string pj, scored;
-      for (const auto& [k, v] : params)
-        pj += fmt::format("{}\"{}\": {}", pj.empty() ? "" : ", ", k, json_number(v));
-      for (const auto& k : c.scored)
-        scored += fmt::format("{}\"{}\"", scored.empty() ? "" : ", ", k);
+      const std::string pj = driver::json_members(params), scored = driver::json_strings(c.scored);
       // Twice the model's error in rms, four times in chi-square: diagnose's own rule for a
       // misfit the model's discretisation could make (kUnidentifiedFactor).
       const bool detectable = c.effect.empty() || (snr >= 3.0 && snr >= 2 * model_error);
       const std::string effect = c.effect.empty() ? "null" : "\"" + c.effect + "\"";
+      const std::vector<double> box =  // factor, lo, hi
+          diagnose::effect_terms(ph, diagnose::find_effect("heterogeneity"));
       const std::string region =
-          ph.has_region ? fmt::format("[[{}, {}, {}], [{}, {}, {}]]", json_number(ph.region.lo[0]),
-                                      json_number(ph.region.lo[1]), json_number(ph.region.lo[2]),
-                                      json_number(ph.region.hi[0]), json_number(ph.region.hi[1]),
-                                      json_number(ph.region.hi[2]))
-                        : std::string("null");
+          !box.empty() ? fmt::format("[[{}, {}, {}], [{}, {}, {}]]", json_number(box[1]),
+                                     json_number(box[2]), json_number(box[3]), json_number(box[4]),
+                                     json_number(box[5]), json_number(box[6]))
+                       : std::string("null");
       write_atomic(
           dir / "truth.json",
           fmt::format("{{\n  \"effect\": {},\n  \"variant\": {},\n  \"parameters\": {{{}}},\n"
@@ -356,18 +358,7 @@ int generate(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  Options o;
-  return driver::main_with(
+  return driver::main_with_options<Options>(
       argc, argv, "Blind recordings of MPM scenes for gen4d diagnose, from the MPM solver at h/2",
-      [&](CLI::App& app) {
-        app.add_option("--out", o.out, "Output folder (cases.json and one folder per case)")
-            ->required();
-        app.add_option("--seed", o.seed, "Random seed (E factors, markers, sample times, noise)");
-        app.add_option("--only", o.only, "Generate only these cases")->take_all();
-      },
-      [&]() {
-        int rank = 0;
-        MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-        return rank == 0 ? generate(o) : 0;
-      });
+      generate, driver::RankZero);
 }

@@ -16,7 +16,6 @@
 // elastic compression under the tallest column is ~1 %). Floor friction tan(30 deg).
 #include <cmath>
 #include <cstdio>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -85,16 +84,9 @@ int run(const std::string& ratios, int cells_d0, double phi, double floor_mu,
   MPI_Comm comm = MPI_COMM_WORLD;
   int rank = 0;
   MPI_Comm_rank(comm, &rank);
-  std::vector<double> as;
-  std::stringstream ss(ratios);
-  for (std::string s; std::getline(ss, s, ',');) {
-    try {
-      as.push_back(std::stod(s));
-    } catch (const std::exception&) {
-      throw InputError("--ratios: '" + s + "' is not a number");
-    }
-    if (!(as.back() > 0)) throw InputError("--ratios: aspect ratios must be > 0");
-  }
+  std::vector<double> as = driver::number_list(ratios, "--ratios");
+  for (double a : as)
+    if (!(a > 0)) throw InputError("--ratios: aspect ratios must be > 0");
   std::sort(as.begin(), as.end());
   const double d0 = 0.1;
   if (rank == 0)

@@ -15,7 +15,6 @@
 // stress as 2 tau_y (Tresca), 13 % stronger.
 #include <cmath>
 #include <cstdio>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -91,17 +90,10 @@ int run(const std::string& list, int cells_h, double consistency, const std::str
   MPI_Comm comm = MPI_COMM_WORLD;
   int rank = 0;
   MPI_Comm_rank(comm, &rank);
-  std::vector<double> taus;
-  std::stringstream ss(list);
-  for (std::string s; std::getline(ss, s, ',');) {
-    try {
-      taus.push_back(std::stod(s));
-    } catch (const std::exception&) {
-      throw InputError("--tau: '" + s + "' is not a number");
-    }
-    if (!(taus.back() > 0 && taus.back() < 0.5))
+  const std::vector<double> taus = driver::number_list(list, "--tau");
+  for (double tau : taus)
+    if (!(tau > 0 && tau < 0.5))
       throw InputError("--tau: dimensionless yield stresses must be in (0, 0.5)");
-  }
   if (rank == 0)
     std::printf("%8s | %8s %8s %7s | %9s %8s %7s %7s\n", "tau'", "s/H sim", "Pashias", "err %",
                 "particles", "substeps", "t_end", "wall s");

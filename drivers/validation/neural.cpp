@@ -49,6 +49,29 @@ struct Options {
   unsigned seed = 1;
   int candidates = nt::kDefaultCandidates;
   double min_corr = 0.999, max_stress = 3e-3, gen_before = 0.95, gen_after = 0.99;
+
+  //! Declares the command-line options.
+  void add(CLI::App& app) {
+    app.add_option("--laws", laws, "Comma-separated laws");
+    app.add_option("--nu", nu, "Poisson ratios of the fitted networks");
+    app.add_option("--dataset", dataset, "Evaluate this dataset's networks instead")
+        ->check(CLI::ExistingFile);
+    app.add_option("--steps", steps, "Adam iterations of the first fit per law");
+    app.add_option("--warm-steps", warm_steps,
+                   "Adam iterations of the later, warm-started fits of a law");
+    app.add_option("--lbfgs-steps", lbfgs, "L-BFGS iterations per fit");
+    app.add_option("--generator", generator, "Generator file (default: the installed one)");
+    app.add_option("--gen-nu", gen_nu, "Poisson ratios for the generator (not in its data)");
+    app.add_option("--finetune-steps", finetune, "Fine-tuning steps after decoding");
+    app.add_option("--candidates", candidates, "DDPM samples per material (best kept)");
+    app.add_option("--seed", seed, "Sampling and fine-tuning seed of the generator part");
+    app.add_flag("--skip-fitted", skip_fitted, "Only the generator part");
+    app.add_flag("--skip-generator", skip_generator, "Only the fitted networks");
+    app.add_option("--min-corr", min_corr, "Target: fitted correlation");
+    app.add_option("--max-stress", max_stress,
+                   "Target: fitted median stress error over strains 1e-3..1e-2");
+    app.add_option("--csv", csv, "Write every row to this CSV file");
+  }
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -190,35 +213,7 @@ int run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  Options o;
-  return driver::main_with(
-      argc, argv, "NeuralMTL accuracy: fitted networks and generator outputs vs the true laws",
-      [&](CLI::App& app) {
-        app.add_option("--laws", o.laws, "Comma-separated laws");
-        app.add_option("--nu", o.nu, "Poisson ratios of the fitted networks");
-        app.add_option("--dataset", o.dataset, "Evaluate this dataset's networks instead")
-            ->check(CLI::ExistingFile);
-        app.add_option("--steps", o.steps, "Adam iterations of the first fit per law");
-        app.add_option("--warm-steps", o.warm_steps,
-                       "Adam iterations of the later, warm-started fits of a law");
-        app.add_option("--lbfgs-steps", o.lbfgs, "L-BFGS iterations per fit");
-        app.add_option("--generator", o.generator, "Generator file (default: the installed one)");
-        app.add_option("--gen-nu", o.gen_nu, "Poisson ratios for the generator (not in its data)");
-        app.add_option("--finetune-steps", o.finetune, "Fine-tuning steps after decoding");
-        app.add_option("--candidates", o.candidates, "DDPM samples per material (best kept)");
-        app.add_option("--seed", o.seed, "Sampling and fine-tuning seed of the generator part");
-        app.add_flag("--skip-fitted", o.skip_fitted, "Only the generator part");
-        app.add_flag("--skip-generator", o.skip_generator, "Only the fitted networks");
-        app.add_option("--min-corr", o.min_corr, "Target: fitted correlation");
-        app.add_option("--max-stress", o.max_stress,
-                       "Target: fitted median stress error over strains 1e-3..1e-2");
-        app.add_option("--csv", o.csv, "Write every row to this CSV file");
-      },
-      [&] {
-        int rank = 0;
-        MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-        int code = rank == 0 ? run(o) : 0;
-        MPI_Bcast(&code, 1, MPI_INT, 0, MPI_COMM_WORLD);
-        return code;
-      });
+  return driver::main_with_options<Options>(
+      argc, argv, "NeuralMTL accuracy: fitted networks and generator outputs vs the true laws", run,
+      driver::RankZero);
 }

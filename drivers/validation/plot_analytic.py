@@ -1,24 +1,15 @@
 #!/usr/bin/env python3
 """Plot the grid-convergence table written by validate_analytic --csv: |error| vs h."""
-import csv
-import sys
 from collections import defaultdict
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from plotting import csv_rows, paths, plt, save
 
 
 def main():
-    if len(sys.argv) != 3:
-        sys.exit("usage: plot_analytic.py ANALYTIC.csv OUT.png")
+    csv_path, out = paths("plot_analytic.py ANALYTIC.csv OUT.png")
     rows = defaultdict(list)
-    with open(sys.argv[1], newline="") as f:
-        for r in csv.DictReader(f):
-            rows[r["check"]].append((float(r["h"]), 100 * float(r["error"])))
-    if not rows:
-        sys.exit(f"{sys.argv[1]}: no rows")
+    for r in csv_rows(csv_path):
+        rows[r["check"]].append((float(r["h"]), 100 * float(r["error"])))
     fig, ax = plt.subplots(figsize=(5.5, 4))
     labels = {"static": "static tip deflection", "frequency": "first bending frequency"}
     for check, pts in sorted(rows.items()):
@@ -38,9 +29,7 @@ def main():
     ax.set_ylabel("|error| vs Euler-Bernoulli [%]")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(sys.argv[2], dpi=120)
-    print(f"wrote {sys.argv[2]}")
+    save(fig, out)
 
 
 if __name__ == "__main__":

@@ -1,23 +1,16 @@
 #!/usr/bin/env python3
 """Plot the tip trajectories written by validate_cantilever --csv (one panel per material);
 with --neural runs, NeuralMTL targets appear as crosses beside the analytic-target dots."""
-import csv
-import sys
 from collections import defaultdict
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from plotting import csv_rows, paths, plt, save
 
 
 def main():
-    if len(sys.argv) != 3:
-        sys.exit("usage: plot_cantilever.py TIP.csv OUT.png")
+    csv_path, out = paths("plot_cantilever.py TIP.csv OUT.png")
     rows = defaultdict(list)
-    with open(sys.argv[1], newline="") as f:
-        for r in csv.DictReader(f):
-            rows[(r["model"], float(r["nu"]))].append(r)
+    for r in csv_rows(csv_path):
+        rows[(r["model"], float(r["nu"]))].append(r)
     models = sorted({m for m, _ in rows})
     fig, axes = plt.subplots(1, len(models), figsize=(5 * len(models), 4), sharey=True)
     for ax, model in zip(axes if len(models) > 1 else [axes], models):
@@ -37,9 +30,7 @@ def main():
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("tip displacement z [m]") if len(models) > 1 else axes.set_ylabel("z [m]")
     axes[0].legend(fontsize=7) if len(models) > 1 else axes.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(sys.argv[2], dpi=120)
-    print(f"wrote {sys.argv[2]}")
+    save(fig, out)
 
 
 if __name__ == "__main__":

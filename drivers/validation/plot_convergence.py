@@ -2,24 +2,17 @@
 """Plot the table written by validate_convergence --csv: trajectory error and true residual
 against relaxation loops (sweeps per global step), log scales, one line per relaxation and
 subspace setting, plus the plain-Jacobi search."""
-import csv
-import sys
 from collections import defaultdict
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from plotting import csv_rows, paths, plt, save
 
 
 def main():
-    if len(sys.argv) != 3:
-        sys.exit("usage: plot_convergence.py CONVERGENCE.csv OUT.png")
+    csv_path, out = paths("plot_convergence.py CONVERGENCE.csv OUT.png")
     series = defaultdict(list)
-    with open(sys.argv[1], newline="") as f:
-        for r in csv.DictReader(f):
-            key = (r["series"], r["relaxation"], int(r["subspace_modes"]))
-            series[key].append((int(r["loops"]), float(r["error"]), float(r["residual_mean"])))
+    for r in csv_rows(csv_path):
+        key = (r["series"], r["relaxation"], int(r["subspace_modes"]))
+        series[key].append((int(r["loops"]), float(r["error"]), float(r["residual_mean"])))
     fig, (ax_e, ax_r) = plt.subplots(1, 2, figsize=(11, 4.2))
     for (kind, relaxation, K), rows in sorted(series.items()):
         rows.sort()
@@ -41,9 +34,7 @@ def main():
         ax.grid(alpha=0.3, which="both")
     ax_e.legend(fontsize=7)
     fig.suptitle("Twisted Neo-Hookean beam: ElastoGen vs Newton reference")
-    fig.tight_layout()
-    fig.savefig(sys.argv[2], dpi=120)
-    print(f"wrote {sys.argv[2]}")
+    save(fig, out)
 
 
 if __name__ == "__main__":

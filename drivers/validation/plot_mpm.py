@@ -6,26 +6,17 @@
   plot_mpm.py slump SLUMP.csv OUT.png                  (validate_mpm_slump --csv)
   plot_mpm.py bar MOMENTUM.csv OUT.png                 (validate_mpm_bar --csv)
 """
-import csv
 import math
 import sys
 from collections import defaultdict
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-
-def rows(path):
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
+from plotting import csv_rows, plt, save
 
 
 def taylor(table, profiles, out):
-    t = rows(table)
+    t = csv_rows(table, required=False)
     p = defaultdict(lambda: defaultdict(list))
-    for r in rows(profiles):
+    for r in csv_rows(profiles, required=False):
         p[(r["series"], r["test"])][r["kind"]].append((float(r["r_mm"]), float(r["z_mm"])))
     n = len(p)
     fig, axes = plt.subplots(1, n + 1, figsize=(4 * (n + 1), 4.5))
@@ -53,12 +44,11 @@ def taylor(table, profiles, out):
         ax.set_ylabel("z (mm)")
         ax.set_title(f"{series} test {test}")
         ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(out, dpi=120)
+    save(fig, out)
 
 
 def collapse(path, out):
-    r = rows(path)
+    r = csv_rows(path, required=False)
     a = [float(x["a"]) for x in r]
     fig, ax = plt.subplots(figsize=(5, 4))
     ax.loglog(a, [float(x["runout_ratio"]) for x in r], "o", label="gen4d MPM (Drucker-Prager)")
@@ -70,12 +60,11 @@ def collapse(path, out):
     ax.set_xlabel("aspect ratio a = h0/d0")
     ax.set_ylabel("(d_inf - d0)/d0")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(out, dpi=120)
+    save(fig, out)
 
 
 def slump(path, out):
-    r = rows(path)
+    r = csv_rows(path, required=False)
     fig, ax = plt.subplots(figsize=(5, 4))
     tt = [0.01 + 0.005 * k for k in range(98)]
     ax.plot(tt, [1 - 2 * t * (1 - math.log(2 * t)) for t in tt], "k-", label="Pashias et al. 1996")
@@ -84,18 +73,16 @@ def slump(path, out):
     ax.set_xlabel("tau_y / (rho g H)")
     ax.set_ylabel("slump s/H")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(out, dpi=120)
+    save(fig, out)
 
 
 def bar(path, out):
-    r = rows(path)
+    r = csv_rows(path, required=False)
     fig, ax = plt.subplots(figsize=(6, 3.5))
     ax.plot([float(x["t"]) for x in r], [float(x["left_half_momentum"]) for x in r])
     ax.set_xlabel("t (s)")
     ax.set_ylabel("left-half momentum (kg m/s)")
-    fig.tight_layout()
-    fig.savefig(out, dpi=120)
+    save(fig, out)
 
 
 def main():

@@ -1,21 +1,11 @@
 #!/usr/bin/env python3
 """Plot the tip trajectories written by validate_timestep --csv."""
-import csv
-import sys
-
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from plotting import csv_rows, paths, plt, save
 
 
 def main():
-    if len(sys.argv) != 3:
-        sys.exit("usage: plot_timestep.py TIMESTEP.csv OUT.png")
-    with open(sys.argv[1], newline="") as f:
-        rows = list(csv.DictReader(f))
-    if not rows:
-        sys.exit(f"{sys.argv[1]}: no rows")
+    csv_path, out = paths("plot_timestep.py TIMESTEP.csv OUT.png")
+    rows = csv_rows(csv_path)
     t = [float(r["t"]) for r in rows]
     fig, ax = plt.subplots(figsize=(6, 4))
     z0 = float(rows[0]["tip_newton"])
@@ -27,9 +17,7 @@ def main():
     ax.set_ylabel("tip displacement z [m]")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(sys.argv[2], dpi=120)
-    print(f"wrote {sys.argv[2]}")
+    save(fig, out)
 
 
 if __name__ == "__main__":

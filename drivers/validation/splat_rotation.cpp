@@ -48,6 +48,18 @@ struct Options {
   double degrees = 60;
   int substeps = 1000;  //!< MPM substeps over the rotation
   bool quick = false;
+
+  //! Declares the command-line options.
+  void add(CLI::App& app) {
+    app.add_option("--splats", splats, "3DGS PLY of the object")->check(CLI::ExistingFile);
+    app.add_option("--out", out, "Output folder");
+    app.add_option("--width", width, "Image width")->check(CLI::PositiveNumber);
+    app.add_option("--height", height, "Image height")->check(CLI::PositiveNumber);
+    app.add_option("--degrees", degrees, "Rotation angle");
+    app.add_option("--substeps", substeps, "MPM substeps over the rotation")
+        ->check(CLI::PositiveNumber);
+    app.add_flag("--quick", quick, "Small images and coarse grids (the ctest twin)");
+  }
 };
 
 const char* const kModes[] = {"full", "fixed_covariance", "rigid_covariance", "fixed_harmonics"};
@@ -151,7 +163,9 @@ Scores score(const gaussians::Image& reference, const gaussians::Camera& cam,
   return s;
 }
 
-int run(const Options& o) {
+int run(const Options& asked) {
+  Options o = asked;
+  if (o.quick) driver::cap({{&o.width, 200}, {&o.height, 150}, {&o.substeps, 400}});
   int rank = 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   fs::create_directories(o.out);
@@ -161,7 +175,7 @@ int run(const Options& o) {
 
   // The rest object as the decks load it (opacity filter), its centre and a camera on it.
   const Config probe = parse_deck(
-      deck_text(ply, 0.1, 1, "corotated", "[domain]\nvoxel_size = 0.01\n"), "probe", ".");
+      deck_text(ply, 0.1, 1, "fixed_corotated", "[domain]\nvoxel_size = 0.01\n"), "probe", ".");
   const gaussians::SplatSet rest = gaussians::load_geometry_splats(probe.geometry[0]);
   const gaussians::SplatFrame rest_frame = gaussians::rest_frame(rest);
   gaussians::OrbitCamera orbit = gaussians::framing_orbit(rest_frame, o.width, o.height, 40);
@@ -245,7 +259,7 @@ angular_velocity = [{wx}, {wy}, {wz}]
         fmt::arg("cz", center[2]), fmt::arg("wx", w * axis[0]), fmt::arg("wy", w * axis[1]),
         fmt::arg("wz", w * axis[2]));
     const Config cfg =
-        parse_deck(deck_text(ply, T / 10, T, "corotated", solver), "elastogen-rotation", ".");
+        parse_deck(deck_text(ply, T / 10, T, "fixed_corotated", solver), "elastogen-rotation", ".");
     const double t0 = MPI_Wtime();
     elastogen::Simulation sim(MPI_COMM_WORLD, cfg);
     sim.run((fs::path(o.out) / "elastogen").string(), false);
@@ -283,26 +297,6 @@ angular_velocity = [{wx}, {wy}, {wz}]
 }  // namespace
 
 int main(int argc, char** argv) {
-  Options o;
-  return driver::main_with(
-      argc, argv, "Rigid rotation of a splat object by the MPM and ElastoGen, rendered",
-      [&](CLI::App& app) {
-        app.add_option("--splats", o.splats, "3DGS PLY of the object")->check(CLI::ExistingFile);
-        app.add_option("--out", o.out, "Output folder");
-        app.add_option("--width", o.width, "Image width")->check(CLI::PositiveNumber);
-        app.add_option("--height", o.height, "Image height")->check(CLI::PositiveNumber);
-        app.add_option("--degrees", o.degrees, "Rotation angle");
-        app.add_option("--substeps", o.substeps, "MPM substeps over the rotation")
-            ->check(CLI::PositiveNumber);
-        app.add_flag("--quick", o.quick, "Small images and coarse grids (the ctest twin)");
-      },
-      [&] {
-        Options q = o;
-        if (q.quick) {
-          q.width = std::min(q.width, 200);
-          q.height = std::min(q.height, 150);
-          q.substeps = std::min(q.substeps, 400);
-        }
-        return run(q);
-      });
+  return driver::main_with_options<Options>(
+      argc, argv, "Rigid rotation of a splat object by the MPM and ElastoGen, rendered", run);
 }

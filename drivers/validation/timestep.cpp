@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "core/Deck.hpp"
+#include "core/DeckText.hpp"
 #include "core/Error.hpp"
 #include "core/Log.hpp"
 #include "elastogen/Simulation.hpp"
@@ -42,34 +43,33 @@ struct Options {
   double tolerance = 0.01;
   bool skip_fine = false;
   std::string csv;
+
+  //! Declares the command-line options.
+  void add(CLI::App& app) {
+    app.add_option("--end-time", end_time, "Simulated seconds")->check(CLI::PositiveNumber);
+    app.add_option("--dt", dt, "Time step in seconds")->check(CLI::PositiveNumber);
+    app.add_option("--voxel", voxel, "Voxel size in metres")->check(CLI::PositiveNumber);
+    app.add_option("--youngs", youngs, "Young's modulus in Pa")->check(CLI::PositiveNumber);
+    app.add_option("--nu", nu, "Poisson ratio")->check(CLI::Range(0.0, 0.49));
+    app.add_option("--model", model, "Material law")
+        ->check(CLI::IsMember({"corotated", "neo_hookean", "stvk"}));
+    app.add_option("--tolerance", tolerance, "Allowed tip error vs Newton");
+    app.add_flag("--skip-fine", skip_fine, "Skip the dt/5 reference run");
+    app.add_option("--csv", csv, "Write tip trajectories to this CSV file");
+  }
 };
 
 Config beam_deck(const Options& o, double dt, const std::string& method) {
-  const std::string text = fmt::format(R"(
-[simulation]
-dt = {}
-end_time = {}
-[domain]
-voxel_size = {}
-padding = 0
-[[geometry]]
-type = "box"
-lo = [0.0, 0.0, 0.0]
-hi = [0.5, 0.1, 0.1]
-[material]
-model = "{}"
-target = "analytic"
-youngs_modulus = {}
-poisson_ratio = {}
-density = 1000.0
-[solver]
-method = "{}"
-[[fixed]]
-lo = [-1.0, -1.0, -1.0]
-hi = [0.001, 1.0, 1.0]
-)",
-                                       dt, o.end_time, o.voxel, o.model, o.youngs, o.nu, method);
-  return parse_deck(text, "<soft beam>", ".");
+  BeamDeck b;
+  b.dt = dt;
+  b.end_time = o.end_time;
+  b.voxel_size = o.voxel;
+  b.law = o.model;
+  b.target = "analytic";
+  b.youngs_modulus = o.youngs;
+  b.poisson_ratio = o.nu;
+  b.method = method;
+  return parse_deck(b.text().str(), "<soft beam>", ".");
 }
 
 struct Run {
@@ -184,20 +184,6 @@ int run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  Options o;
-  return driver::main_with(
-      argc, argv, "Large time steps: soft beam under gravity, ElastoGen vs Newton reference",
-      [&](CLI::App& app) {
-        app.add_option("--end-time", o.end_time, "Simulated seconds")->check(CLI::PositiveNumber);
-        app.add_option("--dt", o.dt, "Time step in seconds")->check(CLI::PositiveNumber);
-        app.add_option("--voxel", o.voxel, "Voxel size in metres")->check(CLI::PositiveNumber);
-        app.add_option("--youngs", o.youngs, "Young's modulus in Pa")->check(CLI::PositiveNumber);
-        app.add_option("--nu", o.nu, "Poisson ratio")->check(CLI::Range(0.0, 0.49));
-        app.add_option("--model", o.model, "Material law")
-            ->check(CLI::IsMember({"corotated", "neo_hookean", "stvk"}));
-        app.add_option("--tolerance", o.tolerance, "Allowed tip error vs Newton");
-        app.add_flag("--skip-fine", o.skip_fine, "Skip the dt/5 reference run");
-        app.add_option("--csv", o.csv, "Write tip trajectories to this CSV file");
-      },
-      [&] { return run(o); });
+  return driver::main_with_options<Options>(
+      argc, argv, "Large time steps: soft beam under gravity, ElastoGen vs Newton reference", run);
 }

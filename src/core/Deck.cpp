@@ -13,6 +13,7 @@
 #include "core/DeckReader.hpp"
 #include "core/DeckUse.hpp"
 #include "core/Error.hpp"
+#include "core/TextFile.hpp"
 
 namespace gen4d {
 namespace {
@@ -34,6 +35,23 @@ void require_box(const Section& s, const Vec3d& lo, const Vec3d& hi) {
   for (int d = 0; d < 3; ++d)
     s.check(lo[d] < hi[d], "hi",
             fmt::format("must be > lo in every component, got lo = {}, hi = {}", lo, hi));
+}
+
+//! `lo` and `hi`, checked to form a box.
+BoxRegion read_box(const Section& s) {
+  BoxRegion r;
+  r.lo = s.vec3("lo");
+  r.hi = s.vec3("hi");
+  require_box(s, r.lo, r.hi);
+  return r;
+}
+
+//! `start` (>= 0) and `end` (> start) of an active window; absent keys keep their defaults.
+void read_window(const Section& s, double& start, double& end) {
+  start = s.number("start", start);
+  require_at_least(s, "start", start, 0);
+  end = s.number("end", end);
+  s.check(end > start, "end", fmt::format("must be > start ({}), got {}", start, end));
 }
 
 std::vector<std::string> key_names(std::string_view table) {
@@ -149,6 +167,19 @@ void reject_foreign_geometry_keys(const Section& s, const std::string& type) {
   reject_foreign_keys(s, "geometry", type, geometry_keys(type));
 }
 
+//! `file` resolved against the deck's folder; InputError on `key` ("MISSING: PATH") unless it is
+//! a regular file. The deck's `key` becomes the absolute path plus `suffix`, so the final deck
+//! text stays valid wherever it is re-read (restarts).
+std::string resolve_existing(Section& s, std::string_view key, const std::string& file,
+                             const fs::path& base_dir, std::string_view missing = "file not found",
+                             const std::string& suffix = "") {
+  const fs::path path = fs::absolute(base_dir / fs::path(file)).lexically_normal();
+  std::error_code ec;
+  s.check(fs::is_regular_file(path, ec), key, fmt::format("{}: {}", missing, path.string()));
+  s.replace(key, path.string() + suffix);
+  return path.string() + suffix;
+}
+
 //! Resolves `file` against the deck's folder, checks it, and stores the absolute path so the
 //! final deck text stays valid wherever it is re-read (restarts).
 std::string resolve_file(Section& s, const fs::path& base_dir, bool mesh) {
@@ -161,11 +192,7 @@ std::string resolve_file(Section& s, const fs::path& base_dir, bool mesh) {
     s.check(ext == ".obj" || ext == ".stl", "file",
             fmt::format("must be an .obj or .stl file, got '{}'", file));
   }
-  const fs::path path = fs::absolute(base_dir / fs::path(file)).lexically_normal();
-  std::error_code ec;
-  s.check(fs::is_regular_file(path, ec), "file", fmt::format("file not found: {}", path.string()));
-  s.replace("file", path.string());
-  return path.string();
+  return resolve_existing(s, "file", file, base_dir);
 }
 
 void require_nonzero_vector(const Section& s, std::string_view key, const Vec3d& v) {
@@ -302,7 +329,11 @@ void read_mpm_material(Section& s, MaterialConfig& m) {
 void read_material(Section& s, MaterialConfig& m, const fs::path& base_dir) {
   for (const std::string& key : mpm_material_keys())
     s.check(!s.has(key), key, "only applies to solver.method = \"mpm\"");
-  m.model = s.choice("model", m.model, {"corotated", "neo_hookean", "stvk", "linear"});
+  // The voxel laws of materials/Registry.cpp's table, and their deprecated spellings.
+  m.model = s.choice(
+      "model", m.model,
+      {"fixed_corotated", "stable_neo_hookean", "stvk", "linear", "corotated", "neo_hookean"});
+  if (s.has("model")) m.param_where["model"] = s.where("model");  // for the law's warnings
   m.target = s.choice("target", m.target, {"analytic", "arap", "neural"});
   if (m.target == "neural") {
     s.check(m.model != "linear", "model",
@@ -310,12 +341,7 @@ void read_material(Section& s, MaterialConfig& m, const fs::path& base_dir) {
     if (s.has("neural_weights")) {
       const std::string file = s.string("neural_weights");
       s.check(!file.empty(), "neural_weights", "must not be empty (leave it out to generate)");
-      const fs::path path = fs::absolute(base_dir / fs::path(file)).lexically_normal();
-      std::error_code ec;
-      s.check(fs::is_regular_file(path, ec), "neural_weights",
-              fmt::format("file not found: {}", path.string()));
-      s.replace("neural_weights", path.string());
-      m.neural_weights = path.string();
+      m.neural_weights = resolve_existing(s, "neural_weights", file, base_dir);
     }
   } else {
     s.check(!s.has("neural_weights"), "neural_weights", "only applies to target = \"neural\"");
@@ -344,9 +370,7 @@ void read_material_binding(const Section& s, const Config& c, MaterialConfig& m)
                         names.empty() ? "none; give one a name key"
                                       : fmt::format("{}", fmt::join(names, ", "))));
   } else {
-    m.region.lo = s.vec3("lo");
-    m.region.hi = s.vec3("hi");
-    require_box(s, m.region.lo, m.region.hi);
+    m.region = read_box(s);
     m.has_region = true;
   }
 }
@@ -497,15 +521,10 @@ BoundaryConfig read_boundary(const Section& s, const std::vector<Curve>& curves)
        "enforce_particle_velocity_rotation", "surface_collider", "release_particles_sequentially"});
   reject_foreign_keys(s, "boundary", b.type, boundary_keys(b.type));
   b.curve = curve_of(s, curves);
-  b.start = s.number("start", b.start);
-  require_at_least(s, "start", b.start, 0);
-  b.end = s.number("end", b.end);
-  s.check(b.end > b.start, "end", fmt::format("must be > start ({}), got {}", b.start, b.end));
+  read_window(s, b.start, b.end);
   if (b.type == "cuboid" || b.type == "particle_impulse" ||
       b.type == "enforce_particle_translation") {
-    b.region.lo = s.vec3("lo");
-    b.region.hi = s.vec3("hi");
-    require_box(s, b.region.lo, b.region.hi);
+    b.region = read_box(s);
   }
   if (b.type == "cuboid" || b.type == "enforce_particle_translation")
     b.velocity = s.vec3("velocity");
@@ -534,9 +553,7 @@ BoundaryConfig read_boundary(const Section& s, const std::vector<Curve>& curves)
     b.friction = s.number("friction", b.friction);
     require_at_least(s, "friction", b.friction, 0);
     if (b.surface == "cut") {
-      b.region.lo = s.vec3("lo");
-      b.region.hi = s.vec3("hi");
-      require_box(s, b.region.lo, b.region.hi);
+      b.region = read_box(s);
       b.cut_scale = s.number("cut_scale", b.cut_scale);
       s.check(b.cut_scale >= 0 && b.cut_scale <= 1, "cut_scale",
               fmt::format("must be in [0, 1], got {}", b.cut_scale));
@@ -587,25 +604,18 @@ Curve curve_of(const Section& s, const std::vector<Curve>& curves) {
 FixedConfig read_fixed(const Section& s) {
   s.reject_unknown(key_names("fixed"));
   FixedConfig f;
-  f.region.lo = s.vec3("lo");
-  f.region.hi = s.vec3("hi");
-  require_box(s, f.region.lo, f.region.hi);
+  f.region = read_box(s);
   return f;
 }
 
 KinematicConfig read_kinematic(const Section& s, const std::vector<Curve>& curves) {
   s.reject_unknown(key_names("kinematic"));
   KinematicConfig k;
-  k.region.lo = s.vec3("lo");
-  k.region.hi = s.vec3("hi");
-  require_box(s, k.region.lo, k.region.hi);
+  k.region = read_box(s);
   k.center = s.vec3("center", k.center);
   k.velocity = s.vec3("velocity", k.velocity);
   k.angular_velocity = s.vec3("angular_velocity", k.angular_velocity);
-  k.start = s.number("start", k.start);
-  require_at_least(s, "start", k.start, 0);
-  k.end = s.number("end", k.end);
-  s.check(k.end > k.start, "end", fmt::format("must be > start ({}), got {}", k.start, k.end));
+  read_window(s, k.start, k.end);
   k.curve = curve_of(s, curves);
   return k;
 }
@@ -613,14 +623,9 @@ KinematicConfig read_kinematic(const Section& s, const std::vector<Curve>& curve
 ForceConfig read_force(const Section& s, const std::vector<Curve>& curves) {
   s.reject_unknown(key_names("force"));
   ForceConfig f;
-  f.region.lo = s.vec3("lo");
-  f.region.hi = s.vec3("hi");
-  require_box(s, f.region.lo, f.region.hi);
+  f.region = read_box(s);
   f.force = s.vec3("force");
-  f.start = s.number("start", f.start);
-  require_at_least(s, "start", f.start, 0);
-  f.end = s.number("end", f.end);
-  s.check(f.end > f.start, "end", fmt::format("must be > start ({}), got {}", f.start, f.end));
+  read_window(s, f.start, f.end);
   f.curve = curve_of(s, curves);
   return f;
 }
@@ -641,9 +646,7 @@ ColliderConfig read_collider(const Section& s) {
         c.normal[0] * c.normal[0] + c.normal[1] * c.normal[1] + c.normal[2] * c.normal[2];
     s.check(n2 > 0, "normal", fmt::format("must not be the zero vector, got {}", c.normal));
   } else {
-    c.box.lo = s.vec3("lo");
-    c.box.hi = s.vec3("hi");
-    require_box(s, c.box.lo, c.box.hi);
+    c.box = read_box(s);
   }
   c.friction = s.number("friction", c.friction);
   require_at_least(s, "friction", c.friction, 0);
@@ -653,17 +656,12 @@ ColliderConfig read_collider(const Section& s) {
 TractionConfig read_traction(const Section& s, const std::vector<Curve>& curves) {
   s.reject_unknown(key_names("traction"));
   TractionConfig t;
-  t.region.lo = s.vec3("lo");
-  t.region.hi = s.vec3("hi");
-  require_box(s, t.region.lo, t.region.hi);
+  t.region = read_box(s);
   if (!s.has("traction") && !s.has("pressure"))
     s.fail_table("needs 'traction' (vec3, Pa) or 'pressure' (Pa), or both");
   t.traction = s.vec3("traction", t.traction);
   t.pressure = s.number("pressure", t.pressure);
-  t.start = s.number("start", t.start);
-  require_at_least(s, "start", t.start, 0);
-  t.end = s.number("end", t.end);
-  s.check(t.end > t.start, "end", fmt::format("must be > start ({}), got {}", t.start, t.end));
+  read_window(s, t.start, t.end);
   t.curve = curve_of(s, curves);
   return t;
 }
@@ -700,12 +698,7 @@ std::string resolve_camera(Section& s, const fs::path& base_dir) {
     index = spec.substr(colon);
   }
   s.check(!file.empty(), "camera", "must be \"auto\", \"orbit\" or a cameras.json file[:index]");
-  const fs::path path = fs::absolute(base_dir / fs::path(file)).lexically_normal();
-  std::error_code ec;
-  s.check(fs::is_regular_file(path, ec), "camera",
-          fmt::format("cameras file not found: {}", path.string()));
-  s.replace("camera", path.string() + index);
-  return path.string() + index;
+  return resolve_existing(s, "camera", file, base_dir, "cameras file not found", index);
 }
 
 //! [render]; a deck with splat geometry renders even without the table (camera "auto").
@@ -761,12 +754,7 @@ void read_render(Section& s, const fs::path& base_dir, const Config& c, RenderCo
   if (s.has("scenery")) {
     const std::string file = s.string("scenery");
     s.check(!file.empty(), "scenery", "must name a 3DGS PLY file");
-    const fs::path path = fs::absolute(base_dir / fs::path(file)).lexically_normal();
-    std::error_code ec;
-    s.check(fs::is_regular_file(path, ec), "scenery",
-            fmt::format("file not found: {}", path.string()));
-    s.replace("scenery", path.string());
-    r.scenery = path.string();
+    r.scenery = resolve_existing(s, "scenery", file, base_dir);
   }
 }
 
@@ -941,13 +929,9 @@ Config load_deck(const std::string& path, const std::vector<std::string>& overri
   std::error_code ec;
   if (!fs::is_regular_file(path, ec))
     throw InputError(fmt::format("{}: deck file not found", path));
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(fmt::format("{}: cannot open the deck", path));
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw InputError(fmt::format("{}: cannot read the deck", path));
+  const std::string text = read_whole_file(path, "deck");
   const fs::path parent = fs::path(path).parent_path();
-  return parse_deck(text.str(), path, parent.empty() ? "." : parent.string(), overrides);
+  return parse_deck(text, path, parent.empty() ? "." : parent.string(), overrides);
 }
 
 }  // namespace gen4d

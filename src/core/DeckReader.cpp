@@ -17,174 +17,77 @@ const KeySpec* TableSpec::find(std::string_view key) const {
   return nullptr;
 }
 
+namespace {
+
+//! The keys of one table from whitespace-separated "name:kind" words (kind: s string, n number,
+//! i integer, v vec3, l list of numbers). `spec` is a literal, so the names stay valid.
+std::vector<KeySpec> keys(std::string_view spec) {
+  std::vector<KeySpec> out;
+  while (!spec.empty()) {
+    const std::size_t start = spec.find_first_not_of(' ');
+    if (start == std::string_view::npos) break;
+    spec.remove_prefix(start);
+    const std::size_t end = std::min(spec.find(' '), spec.size());
+    const std::string_view word = spec.substr(0, end);
+    const std::size_t colon = word.find(':');
+    if (colon == std::string_view::npos || colon + 2 != word.size())
+      throw RuntimeError(fmt::format("deck schema: malformed key '{}'", word));
+    // The letters in the order of Kind's enumerators.
+    const std::size_t kind = std::string_view("snivl").find(word.back());
+    if (kind == std::string_view::npos)
+      throw RuntimeError(fmt::format("deck schema: unknown kind in '{}'", word));
+    out.push_back({word.substr(0, colon), static_cast<Kind>(kind)});
+    spec.remove_prefix(end);
+  }
+  return out;
+}
+
+}  // namespace
+
 const std::vector<TableSpec>& schema() {
-  using K = Kind;
   static const std::vector<TableSpec> tables = {
-      {"simulation",
-       false,
-       {{"name", K::String}, {"dt", K::Number}, {"end_time", K::Number}, {"gravity", K::Vec3}}},
-      {"domain", false, {{"voxel_size", K::Number}, {"padding", K::Integer}}},
-      {"geometry",
-       true,
-       {{"type", K::String},
-        {"name", K::String},
-        {"lo", K::Vec3},
-        {"hi", K::Vec3},
-        {"center", K::Vec3},
-        {"a", K::Vec3},
-        {"b", K::Vec3},
-        {"radius", K::Number},
-        {"file", K::String},
-        {"grid", K::String},
-        {"scale", K::Number},
-        {"translate", K::Vec3},
-        {"rotate_axis", K::Vec3},
-        {"rotate_degrees", K::Number},
-        {"opacity_threshold", K::Number},
-        {"fill_cells", K::Integer},
-        {"color", K::Vec3}}},
-      {"material",
-       false,
-       {{"model", K::String},
-        {"target", K::String},
-        {"youngs_modulus", K::Number},
-        {"poisson_ratio", K::Number},
-        {"density", K::Number},
-        {"neural_weights", K::String},
-        // MPM models (solver.method = "mpm"); which model takes which key: inputs/README.md.
-        {"friction_angle", K::Number},
-        {"cohesion", K::Number},
-        {"yield_stress", K::Number},
-        {"hardening", K::Number},
-        {"jc_A", K::Number},
-        {"jc_B", K::Number},
-        {"jc_n", K::Number},
-        {"jc_C", K::Number},
-        {"jc_m", K::Number},
-        {"reference_strain_rate", K::Number},
-        {"room_temperature", K::Number},
-        {"melt_temperature", K::Number},
-        {"initial_temperature", K::Number},
-        {"specific_heat", K::Number},
-        {"taylor_quinney", K::Number},
-        {"consistency", K::Number},
-        {"flow_index", K::Number},
-        {"fracture_strain", K::Number},
-        {"failure_strain", K::Number},
-        {"critical_compression", K::Number},
-        {"critical_stretch", K::Number},
-        {"hardening_coefficient", K::Number},
-        // Binding of a [[material]] entry after the first.
-        {"geometry", K::String},
-        {"lo", K::Vec3},
-        {"hi", K::Vec3}},
+      {"simulation", false, keys("name:s dt:n end_time:n gravity:v")},
+      {"domain", false, keys("voxel_size:n padding:i")},
+      {"geometry", true,
+       keys("type:s name:s lo:v hi:v center:v a:v b:v radius:n file:s grid:s scale:n translate:v "
+            "rotate_axis:v rotate_degrees:n opacity_threshold:n fill_cells:i color:v")},
+      {"material", false,
+       keys("model:s target:s youngs_modulus:n poisson_ratio:n density:n neural_weights:s "
+            // MPM models (solver.method = "mpm"); which model takes which key: inputs/README.md.
+            "friction_angle:n cohesion:n yield_stress:n hardening:n jc_A:n jc_B:n jc_n:n jc_C:n "
+            "jc_m:n reference_strain_rate:n room_temperature:n melt_temperature:n "
+            "initial_temperature:n specific_heat:n taylor_quinney:n consistency:n flow_index:n "
+            "fracture_strain:n failure_strain:n critical_compression:n critical_stretch:n "
+            "hardening_coefficient:n "
+            // Binding of a [[material]] entry after the first.
+            "geometry:s lo:v hi:v"),
        true},
-      {"solver",
-       false,
-       {{"method", K::String},
-        {"relaxation", K::String},
-        {"jacobi_omega", K::Number},
-        {"chebyshev_ratio", K::Number},
-        {"max_sweeps", K::Integer},
-        {"inner_tolerance", K::Number},
-        {"subspace_modes", K::Integer},
-        {"max_outer", K::Integer},
-        {"outer_tolerance", K::Number},
-        {"accuracy_tolerance", K::Number},
-        {"max_extra_outer", K::Integer},
-        {"anderson_depth", K::Integer}}},
-      {"mpm",
-       false,
-       {{"lo", K::Vec3},
-        {"hi", K::Vec3},
-        {"particles_per_axis", K::Integer},
-        {"cfl", K::Number},
-        {"wave_cfl", K::Number},
-        {"substep", K::String},
-        {"out_of_domain", K::String},
-        {"boundary_layers", K::Integer},
-        {"velocity", K::Vec3},
-        {"max_cells_per_substep", K::Number},
-        {"rpic_damping", K::Number},
-        {"grid_velocity_scale", K::Number}}},
-      {"boundary",
-       true,
-       {{"type", K::String},
-        {"curve", K::String},
-        {"lo", K::Vec3},
-        {"hi", K::Vec3},
-        {"point", K::Vec3},
-        {"normal", K::Vec3},
-        {"velocity", K::Vec3},
-        {"angular_velocity", K::Vec3},
-        {"force", K::Vec3},
-        {"radius", K::Number},
-        {"half_height", K::Number},
-        {"surface", K::String},
-        {"friction", K::Number},
-        {"cut_scale", K::Number},
-        {"motion", K::String},
-        {"reset_duration", K::Number},
-        {"layers", K::Integer},
-        {"start", K::Number},
-        {"end", K::Number}}},
-      {"fixed", true, {{"lo", K::Vec3}, {"hi", K::Vec3}}},
-      {"kinematic",
-       true,
-       {{"lo", K::Vec3},
-        {"hi", K::Vec3},
-        {"center", K::Vec3},
-        {"velocity", K::Vec3},
-        {"angular_velocity", K::Vec3},
-        {"start", K::Number},
-        {"end", K::Number},
-        {"curve", K::String}}},
-      {"force",
-       true,
-       {{"lo", K::Vec3},
-        {"hi", K::Vec3},
-        {"force", K::Vec3},
-        {"start", K::Number},
-        {"end", K::Number},
-        {"curve", K::String}}},
-      {"collider",
-       true,
-       {{"type", K::String},
-        {"point", K::Vec3},
-        {"normal", K::Vec3},
-        {"lo", K::Vec3},
-        {"hi", K::Vec3},
-        {"friction", K::Number}}},
-      {"traction",
-       true,
-       {{"lo", K::Vec3},
-        {"hi", K::Vec3},
-        {"traction", K::Vec3},
-        {"pressure", K::Number},
-        {"start", K::Number},
-        {"end", K::Number},
-        {"curve", K::String}}},
-      {"curve", true, {{"name", K::String}, {"time", K::Numbers}, {"factor", K::Numbers}}},
-      {"output",
-       false,
-       {{"dir", K::String},
-        {"frame_interval", K::Number},
-        {"checkpoint_every", K::Integer},
-        {"checkpoint_keep", K::Integer},
-        {"progress_interval", K::Number},
-        {"surface", K::String},
-        {"surface_source", K::String},
-        {"particles", K::String},
-        {"volumes", K::String}}},
-      {"render",
-       false,
-       {{"camera", K::String},        {"center", K::Vec3},        {"up", K::Vec3},
-        {"azimuth", K::Number},       {"elevation", K::Number},   {"radius", K::Number},
-        {"d_azimuth", K::Number},     {"d_elevation", K::Number}, {"d_radius", K::Number},
-        {"fov_y", K::Number},         {"width", K::Integer},      {"height", K::Integer},
-        {"background", K::Vec3},      {"kinematics", K::String},  {"covariance_update", K::String},
-        {"splat_spacing", K::Number}, {"video", K::String},       {"layout", K::String},
-        {"fps", K::Number},           {"scenery", K::String}}},
+      {"solver", false,
+       keys("method:s relaxation:s jacobi_omega:n chebyshev_ratio:n max_sweeps:i "
+            "inner_tolerance:n subspace_modes:i max_outer:i outer_tolerance:n "
+            "accuracy_tolerance:n max_extra_outer:i anderson_depth:i")},
+      {"mpm", false,
+       keys("lo:v hi:v particles_per_axis:i cfl:n wave_cfl:n substep:s out_of_domain:s "
+            "boundary_layers:i velocity:v max_cells_per_substep:n rpic_damping:n "
+            "grid_velocity_scale:n")},
+      {"boundary", true,
+       keys("type:s curve:s lo:v hi:v point:v normal:v velocity:v angular_velocity:v force:v "
+            "radius:n half_height:n surface:s friction:n cut_scale:n motion:s reset_duration:n "
+            "layers:i start:n end:n")},
+      {"fixed", true, keys("lo:v hi:v")},
+      {"kinematic", true,
+       keys("lo:v hi:v center:v velocity:v angular_velocity:v start:n end:n curve:s")},
+      {"force", true, keys("lo:v hi:v force:v start:n end:n curve:s")},
+      {"collider", true, keys("type:s point:v normal:v lo:v hi:v friction:n")},
+      {"traction", true, keys("lo:v hi:v traction:v pressure:n start:n end:n curve:s")},
+      {"curve", true, keys("name:s time:l factor:l")},
+      {"output", false,
+       keys("dir:s frame_interval:n checkpoint_every:i checkpoint_keep:i progress_interval:n "
+            "surface:s surface_source:s particles:s volumes:s")},
+      {"render", false,
+       keys("camera:s center:v up:v azimuth:n elevation:n radius:n d_azimuth:n d_elevation:n "
+            "d_radius:n fov_y:n width:i height:i background:v kinematics:s covariance_update:s "
+            "splat_spacing:n video:s layout:s fps:n scenery:s")},
   };
   return tables;
 }

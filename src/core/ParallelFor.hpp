@@ -35,34 +35,6 @@ inline int host_threads() {
 //! Loops shorter than this run serially: a parallel region costs a few microseconds.
 inline constexpr long kSerialBelow = 2048;
 
-//! f(i) for i in [0, n) on the host's threads, static contiguous chunks (thread t gets the t-th
-//! block, so per-thread work is as local as the data).
-template <class F>
-void parallel_for(long n, const F& f) {
-#if defined(_OPENMP)
-  if (n >= kSerialBelow && omp_get_max_threads() > 1) {
-#pragma omp parallel for schedule(static)
-    for (long i = 0; i < n; ++i) f(i);
-    return;
-  }
-#endif
-  for (long i = 0; i < n; ++i) f(i);
-}
-
-//! f(i) for i in [0, n), items handed out one at a time to the next free thread: for items of
-//! very uneven cost (image tiles).
-template <class F>
-void parallel_for_dynamic(long n, const F& f) {
-#if defined(_OPENMP)
-  if (n > 1 && omp_get_max_threads() > 1) {
-#pragma omp parallel for schedule(dynamic, 1)
-    for (long i = 0; i < n; ++i) f(i);
-    return;
-  }
-#endif
-  for (long i = 0; i < n; ++i) f(i);
-}
-
 //! f(begin, end) on contiguous blocks of [0, n), one block per thread: for loops that keep a
 //! per-block accumulator or scratch.
 template <class F>
@@ -78,6 +50,29 @@ void parallel_blocks(long n, const F& f) {
   }
 #endif
   f(0L, n);
+}
+
+//! f(i) for i in [0, n) on the host's threads, static contiguous chunks (thread t gets the t-th
+//! block, so per-thread work is as local as the data).
+template <class F>
+void parallel_for(long n, const F& f) {
+  parallel_blocks(n, [&f](long begin, long end) {
+    for (long i = begin; i < end; ++i) f(i);
+  });
+}
+
+//! f(i) for i in [0, n), items handed out one at a time to the next free thread: for items of
+//! very uneven cost (image tiles).
+template <class F>
+void parallel_for_dynamic(long n, const F& f) {
+#if defined(_OPENMP)
+  if (n > 1 && omp_get_max_threads() > 1) {
+#pragma omp parallel for schedule(dynamic, 1)
+    for (long i = 0; i < n; ++i) f(i);
+    return;
+  }
+#endif
+  for (long i = 0; i < n; ++i) f(i);
 }
 
 //! max over i of f(i) (f returns double; the result does not depend on the thread count).

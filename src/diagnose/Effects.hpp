@@ -1,10 +1,11 @@
 //! The library of candidate effects `gen4d diagnose` can add to a deck. Each effect is a few
-//! parameters of the forward model (diagnose::Physics) that reduce to the deck's physics at
-//! their null value, scales and screening probes derived from the scene, and the signature
-//! it leaves in a recording.
+//! parameters that reduce to the deck's physics at their null value, scales and screening
+//! probes derived from the scene, the signature it leaves in a recording, and the terms it
+//! adds to the forward models (add_terms: coefficients and node forces in a ModelTerms).
 //
-// Adding an effect: one class in Effects.cpp deriving from Effect, appended to the list in
-// effect_library(). Names are what `--effects` and report.json use.
+// Adding an effect: one file effects/<Name>.cpp defining a class derived from Effect and its
+// factory, and one line in the list of effects/Library.cpp. Names are what `--effects` and
+// report.json use.
 #pragma once
 
 #include <memory>
@@ -72,8 +73,15 @@ class Effect {
   //! Null value of the parameters (the baseline), natural units.
   virtual std::vector<double> null_values(const EffectContext& c,
                                           const std::string& variant) const = 0;
+  //! Sets the effect in ph at parameters p (natural units): its term values
+  //! (set_effect_terms), or base fields of ph for an effect of the deck's own physics.
   virtual void apply(const std::string& variant, const std::vector<double>& p,
                      const EffectContext& c, Physics& ph) const = 0;
+  //! Term values (AppliedEffect::terms) that leave the deck's physics as it is: an entry with
+  //! these is dropped from Physics::effects. Empty: any entry changes the physics.
+  virtual std::vector<double> absent_terms() const { return {}; }
+  //! The forward models' hook: adds the effect's terms with values `terms` to t (once per run).
+  virtual void add_terms(const std::vector<double>& /*terms*/, ModelTerms& /*t*/) const {}
   //! Free choices beyond the continuous parameters, counted in BIC (region, law).
   virtual int discrete_dof() const { return 0; }
   //! True when the effect makes forward runs several times slower (a return map per Gauss
@@ -93,8 +101,19 @@ class Effect {
   virtual std::vector<BoxRegion> start_regions(const EffectContext&) const { return {}; }
 };
 
-//! Every registered effect, in a fixed order.
+//! Every registered effect, in a fixed order: effects/Library.cpp's list, then any added by
+//! add_effect.
 const std::vector<std::unique_ptr<Effect>>& effect_library();
+//! Appends an effect to the library (a test's own); InputError if its name is taken.
+void add_effect(std::unique_ptr<Effect> effect);
+//! The term values of `effect` in ph: its entry's, else its absent_terms().
+std::vector<double> effect_terms(const Physics& ph, const Effect& effect);
+//! Sets the term values of `effect` in ph (in library order; removed at absent_terms()).
+void set_effect_terms(Physics& ph, const Effect& effect, std::vector<double> terms);
+//! set_effect_terms for the effect called `name`.
+void set_effect_terms(Physics& ph, const std::string& name, std::vector<double> terms);
+//! What ph's applied effects add to a run (each effect's add_terms, in library order).
+ModelTerms model_terms(const Physics& ph);
 //! The effect called `name`; InputError listing the known names otherwise.
 const Effect& find_effect(const std::string& name);
 std::vector<std::string> effect_names();

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "core/Error.hpp"
+#include "diagnose/Effects.hpp"
 #include "core/Log.hpp"
 #include "parallel/PetscCheck.hpp"
 #include "parallel/Comm.hpp"
@@ -36,27 +37,27 @@ void Evaluator::set_horizon(double t) {
 }
 
 std::string physics_key(const Physics& p, double horizon) {
-  // Every field, in declaration order; a field added to Physics must be added here (the size
-  // check below fails on the platform the project is built on until it is).
-#if defined(__GLIBCXX__) && defined(__x86_64__)
-  static_assert(sizeof(Physics) == 304, "Physics changed: add the new field to physics_key");
-#endif
+  // The base physics field by field, then each applied effect's name and term values (an
+  // effect at its null values has no entry, so it keys as the base physics).
   std::string k;
   auto put = [&k](const auto& v) { k.append(reinterpret_cast<const char*>(&v), sizeof v); };
+  auto put_text = [&](const std::string& s) {
+    put(s.size());
+    k += s;
+  };
   put(p.element);
   put(p.consistent_mass_fraction);
-  put(p.law.size());
-  k += p.law;
+  put_text(p.law);
   put(p.youngs_modulus), put(p.poisson_ratio), put(p.density);
   for (double g : p.gravity) put(g);
-  put(p.dt), put(p.rayleigh_alpha), put(p.rayleigh_beta), put(p.prony_g), put(p.prony_tau);
-  put(p.yield_stress), put(p.hardening), put(p.has_region);
-  for (double x : p.region.lo) put(x);
-  for (double x : p.region.hi) put(x);
-  put(p.region_factor), put(p.clamp_stiffness), put(p.clamp_damping), put(p.ground);
-  put(p.ground_height), put(p.ground_friction), put(p.drag_linear), put(p.drag_quadratic);
-  put(p.coulomb_accel), put(p.load_scale), put(p.newton_tolerance), put(p.refresh_contraction),
-      put(horizon);
+  put(p.dt), put(p.load_scale), put(p.newton_tolerance), put(p.refresh_contraction);
+  put(horizon);
+  put(p.effects.size());
+  for (const auto& e : p.effects) {
+    put_text(e.effect->name());
+    put(e.terms.size());
+    for (double x : e.terms) put(x);
+  }
   return k;
 }
 

@@ -1,6 +1,7 @@
 //! The diagnose forward model's von Mises return map: Hencky (logarithmic) elasticity with
 //! J2 radial return and linear isotropic hardening, the same material as the MPM `von_mises`
-//! model with linear hardening (src/mpm/materials/VonMises.cpp), but in the principal frame
+//! model with linear hardening (src/mpm/materials/VonMises.cpp) and the same return
+//! (materials/J2Return.hpp), but in the principal frame
 //! of the trial left Cauchy-Green tensor b = Fe Fe^T (closed-form symmetric 3x3 eigensolver)
 //! instead of a Jacobi SVD of Fe: the implicit model calls it at every Gauss point of every
 //! Newton iterate, and 18 more times per point for each tangent.
@@ -12,8 +13,9 @@
 #pragma once
 
 #include <Eigen/Dense>
-#include <algorithm>
 #include <cmath>
+
+#include "materials/J2Return.hpp"
 
 namespace gen4d::diagnose {
 
@@ -38,12 +40,11 @@ struct HenckyJ2 {
     const double m = e.sum() / 3.0;
     const Eigen::Vector3d eh = e.array() - m;
     const double nrm = eh.norm();
-    constexpr double kSqrt23 = 0.816496580927726032732428024902;
-    const double f = 2 * mu * nrm - kSqrt23 * (yield_stress + hardening * eps_p);
+    const double f = materials::j2_linear_overstress(nrm, mu, yield_stress, hardening, eps_p);
     if (f > 0 && nrm > 0) {
-      const double dg = f / (2 * mu + 2.0 / 3.0 * hardening);
-      e -= (std::min(dg, nrm) / nrm) * eh;
-      eps_p += kSqrt23 * dg;
+      const double dg = materials::j2_linear_multiplier(f, mu, hardening);
+      materials::radial_return(e, eh, nrm, dg);
+      eps_p += materials::kSqrt23 * dg;
       const Eigen::Vector3d r = (e.array().exp() / l.array().sqrt()).matrix();
       const Eigen::Matrix3d Fn = N * r.asDiagonal() * N.transpose() * F;
       for (int i = 0; i < 3; ++i)

@@ -256,9 +256,9 @@ void stiffness_map(State& s) {
   for (auto& [key, vox] : blocks) {
     keys.push_back(key);
     Physics p = s.calibrated;
-    p.has_region = true;
-    p.region = model.voxel_box(vox);
-    p.region_factor = 0.8;
+    const BoxRegion b = model.voxel_box(vox);
+    set_effect_terms(p, "heterogeneity",
+                     {0.8, b.lo[0], b.lo[1], b.lo[2], b.hi[0], b.hi[1], b.hi[2]});
     batch.push_back(p);
   }
   const auto preds = s.ev->run(batch);

@@ -2,6 +2,7 @@
 #include "diagnose/MpmModel.hpp"
 
 #include "diagnose/BlockLDLT.hpp"
+#include "diagnose/Effects.hpp"
 #include "diagnose/ElementKernel.hpp"
 #include "diagnose/HenckyJ2.hpp"
 #include "diagnose/NodeBlockProduct.hpp"
@@ -298,7 +299,9 @@ VoxelModel::VoxelModel(const Config& cfg) : cfg_(cfg) {
     throw InputError(src + ": key 'solver.method': \"mpm\" decks take MpmModel");
   if (!(cfg.dt > 0) || !(cfg.end_time > 0))
     throw InputError(src + ": keys 'simulation.dt' and 'simulation.end_time' must be > 0");
-  materials::find_material(cfg.material.model);  // InputError for an unknown law
+  const auto at = cfg.material.param_where.find("model");  // InputError for an unknown law
+  materials::deck_law(cfg.material.model, materials::Solver::Voxel,
+                      at == cfg.material.param_where.end() ? "" : at->second);
   if (!cfg.material_regions.empty())
     throw InputError(cfg.material_regions[0].where +
                      ": several [[material]] entries are not supported by gen4d diagnose (it "
@@ -520,190 +523,299 @@ std::vector<double> VoxelModel::load_events() const {
   return e;
 }
 
+//! One run of VoxelModel with the hyperelastic law as a compile-time type (pk1(Mat3) -> Mat3):
+//! the model's step matrix and constitutive state set up once, then trapezoidal steps, each a
+//! Newton iteration with a lagged tangent, then the samples.
 template <class Law>
-Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& req,
-                          const Law& law) const {
-  Trace tr;
-  const std::size_t nn = X_.size();
-  const bool clamp_springs = std::isfinite(ph.clamp_stiffness);
-  // Degrees of freedom: every node but the rigidly fixed ones.
-  int ndof = 0;
-  const std::vector<int> dof = free_dofs(fixed_, clamp_springs, ndof);
-  const double h = h_, dt = ph.dt;
-  const double lambda0 =
-      ph.youngs_modulus * ph.poisson_ratio / ((1 + ph.poisson_ratio) * (1 - 2 * ph.poisson_ratio));
-  const double mu0 = ph.youngs_modulus / (2 * (1 + ph.poisson_ratio));
-  const std::size_t nv = vox_node_.size();
-  const std::vector<double> vfac = stiffness_factors(ph);
+class VoxelRun {
+ public:
+  VoxelRun(const VoxelModel& md, const Physics& ph, const ModelTerms& tm, const Law& law)
+      : md_(md), ph(ph), tm(tm), law(law), nn(md.X_.size()), nv(md.vox_node_.size()) {}
 
-  // Linear stiffness at rest, K0, on the free dofs, the bubbles condensed per element (the
-  // same for every voxel up to its stiffness factor). Per voxel: L = Kaa^-1 Kau and Kaa^-1 of
-  // the matrix last factored, for the bubbles' update after each global solve.
-  const bool bubbles = ph.element == Element::incompatible;
-  Condensed c0;
-  if (!rest_element(bubbles, h, lambda0, mu0, c0)) {
-    tr.ok = false;
-    tr.failure = "the element's bubble stiffness is singular";
+  Trace run(const std::vector<ChannelRequest>& req) {
+    if (!setup_stiffness()) return tr;
+    setup_mass_and_supports();
+    if (!setup_step_matrix()) return tr;
+    setup_constitutive();
+    setup_sampling(req);
+    setup_loads();
+    initial_acceleration();
+    record(0);
+    a_prev = a;
+    fext.assign(3 * nn, 0.0);
+    tol_du = ph.newton_tolerance * h;
+    for (long s = 1; s <= nsteps; ++s)
+      if (!step(s)) return tr;
+    sample(req);
     return tr;
   }
+
+ private:
+  using Vec24 = Eigen::Matrix<double, 24, 1>;
+  const VoxelModel& md_;
+  const Physics& ph;
+  const ModelTerms& tm;
+  const Law& law;
+  Trace tr;
+  const std::size_t nn, nv;
+  double h = 0, dt = 0, lambda0 = 0, mu0 = 0;
+  int ndof = 0;
+  std::vector<int> dof;
+  std::vector<double> vfac;
+  bool clamp_springs = false, bubbles = false;
+  Condensed c0;
   // Per voxel: L, its transpose (the products read both along their outputs) and Kinv.
   std::vector<Eigen::Matrix<double, 9, 24>> condL;
   std::vector<Eigen::Matrix<double, 24, 9>> condLt;
   std::vector<Eigen::Matrix<double, 9, 9>> condKinv;
-  if (bubbles) {
-    condL.assign(nv, c0.L);
-    condLt.assign(nv, c0.L.transpose());
-    condKinv.resize(nv);
-    for (std::size_t v = 0; v < nv; ++v) condKinv[v] = c0.Kinv / vfac[v];
-  }
-  std::vector<Eigen::Triplet<double>> trip;
-  const SpMat K0 = assemble_stiffness(vox_node_, dof, ndof, vfac, c0.Kc, trip);
-  // Where each voxel's free 3x3 node blocks sit among K0's values (the tangent has K0's
-  // pattern): the tangent is added there directly, in the order of the loops above, instead
-  // of through triplets sorted anew on every rebuild.
+  SpMat K0, Kt, Mc, diagA;
   std::vector<int> kslot;
-  kslot.reserve(trip.size());
-  for (const auto& tr3 : trip) {
-    const int col = tr3.col();
-    const int* begin = K0.innerIndexPtr() + K0.outerIndexPtr()[col];
-    const int* end = K0.innerIndexPtr() + K0.outerIndexPtr()[col + 1];
-    kslot.push_back(static_cast<int>(std::lower_bound(begin, end, tr3.row()) - K0.innerIndexPtr()));
-  }
-  trip = {};
-  // Mass: lumped (a diagonal, M), or Mc = theta consistent + (1 - theta) lumped, the
-  // consistent part the trilinear shape functions' integral (the bubbles carry no mass).
-  // Mass-proportional damping uses the same matrix; Cd is the diagonal rest (air drag, clamp
-  // dashpots), Ks the clamp springs.
-  Eigen::VectorXd M(ndof), Cd(ndof), Ks(ndof);
-  const double theta = std::clamp(ph.consistent_mass_fraction, 0.0, 1.0);
-  const bool consistent = theta > 0;
-  SpMat Mc;
+  Eigen::VectorXd M, Cd, Ks;
+  bool consistent = false, clamp_faces = false;
   NodeBlockProduct Mc_nodes;  // Mc's product, one index per node pair (the same bits)
-  if (consistent) {
-    Mc = assemble_mass(vox_node_, dof, ndof, mass_, ph.density, theta, h);
-    Mc_nodes = NodeBlockProduct(Mc);
+  double ca = 0, cv = 0, k_pen = 0;
+  std::vector<Plane> planes;
+  BlockLDLT solver;
+  std::vector<char> active;
+  // Constitutive state per Gauss point.
+  bool plastic = false, visco = false, kelvin_voigt = false;
+  HenckyJ2 j2;  // von Mises with linear hardening (Hencky elasticity)
+  std::vector<double> fp_inv, fp_inv_new, pstate, pstate_new, qv, qv_new;
+  double rv = 0;
+  std::vector<double> u, v, a, u1, v1, a1, a_prev, fext, fint;
+  // Bubble amplitudes per voxel (9: axis i, component d at 3 i + d), their rates (trapezoidal,
+  // for the viscous stress), trial values, and their residual (element-local equations).
+  std::vector<double> al, ald, al1, ald1, ral;
+  Eigen::VectorXd R, du, wa, Mwa;
+  const ElementStencil& S = ElementStencil::get();
+  double step_max_mises = 0;
+  long step_continued = 0;  // StVK: Gauss points continued at the step's predictor
+  double G[8][kShapes][3];
+  static constexpr bool kStvk = std::is_same_v<Law, materials::StVK>;
+  static constexpr bool kLaneLaw = kStvk || std::is_same_v<Law, materials::NeoHookean> ||
+                                   std::is_same_v<Law, materials::FixedCorotated>;
+  bool vector_pass = false, vector_tangent = false;
+  ElasticForcePass pass;
+  ElasticTangent vtangent;
+  alignas(64) double Gl[kShapes][3][8];
+  long nsteps = 0;
+  std::vector<int> sample_slot;
+  std::vector<std::size_t> sampled;
+  std::size_t ns = 0;
+  std::vector<double> hist_u;  // u, v, a of the sampled nodes per step
+  std::vector<double> region_mass;
+  double t_tol = 0, tol_du = 0;
+
+  bool fail(const std::string& why) {
+    tr.ok = false;
+    tr.failure = why;
+    return false;
   }
-  for (std::size_t n = 0; n < nn; ++n) {
-    if (dof[n] < 0) continue;
-    const double m = mass_[n] * ph.density;
-    double c = ph.drag_linear * area_[n];
-    double k = 0;
-    if (fixed_[n] && clamp_springs) {
-      k = ph.clamp_stiffness * clamp_area_[n];
-      c += ph.clamp_damping * clamp_area_[n];
+
+  //! Degrees of freedom (every node but the rigidly fixed ones) and the linear stiffness at
+  //! rest, K0, on them, the bubbles condensed per element (the same for every voxel up to its
+  //! stiffness factor). Per voxel: L = Kaa^-1 Kau and Kaa^-1 of the matrix last factored, for
+  //! the bubbles' update after each global solve.
+  bool setup_stiffness() {
+    clamp_springs = std::isfinite(tm.clamp_stiffness);
+    dof = free_dofs(md_.fixed_, clamp_springs, ndof);
+    h = md_.h_, dt = ph.dt;
+    lambda0 = ph.youngs_modulus * ph.poisson_ratio /
+              ((1 + ph.poisson_ratio) * (1 - 2 * ph.poisson_ratio));
+    mu0 = ph.youngs_modulus / (2 * (1 + ph.poisson_ratio));
+    vfac = md_.stiffness_factors(tm);
+    bubbles = ph.element == Element::incompatible;
+    if (!rest_element(bubbles, h, lambda0, mu0, c0))
+      return fail("the element's bubble stiffness is singular");
+    if (bubbles) {
+      condL.assign(nv, c0.L);
+      condLt.assign(nv, c0.L.transpose());
+      condKinv.resize(nv);
+      for (std::size_t vx = 0; vx < nv; ++vx) condKinv[vx] = c0.Kinv / vfac[vx];
     }
-    for (int a = 0; a < 3; ++a) M[dof[n] + a] = m, Cd[dof[n] + a] = c, Ks[dof[n] + a] = k;
+    std::vector<Eigen::Triplet<double>> trip;
+    K0 = assemble_stiffness(md_.vox_node_, dof, ndof, vfac, c0.Kc, trip);
+    // Where each voxel's free 3x3 node blocks sit among K0's values (the tangent has K0's
+    // pattern): the tangent is added there directly, in the order of the loops above, instead
+    // of through triplets sorted anew on every rebuild.
+    kslot.reserve(trip.size());
+    for (const auto& tr3 : trip) {
+      const int col = tr3.col();
+      const int* begin = K0.innerIndexPtr() + K0.outerIndexPtr()[col];
+      const int* end = K0.innerIndexPtr() + K0.outerIndexPtr()[col + 1];
+      kslot.push_back(
+          static_cast<int>(std::lower_bound(begin, end, tr3.row()) - K0.innerIndexPtr()));
+    }
+    return true;
   }
-  // The clamp faces' springs and dashpots as an elastic foundation, integrated with the
-  // face's bilinear shape functions (the consistent matrix, h^2/36 times 4, 2, 1 for a corner
-  // with itself, along an edge, across): exact for the linear field of a face that tilts, so
-  // the clamp's rotational stiffness is k times the face's second moment of area on any
-  // mesh. Lumped at the corners it was 1 + 2 (h/H)^2 times that (face H wide): +50 % at two
-  // voxels across, +12.5 % at four, and a fitted clamp stiffness low by as much.
-  auto foundation = [&](int q, int r) {
+
+  //! Mass: lumped (a diagonal, M), or Mc = theta consistent + (1 - theta) lumped, the
+  //! consistent part the trilinear shape functions' integral (the bubbles carry no mass).
+  //! Mass-proportional damping uses the same matrix; Cd is the diagonal rest (the node forces'
+  //! damping, clamp dashpots), Ks the clamp springs. Then the contact planes.
+  void setup_mass_and_supports() {
+    M.resize(ndof), Cd.resize(ndof), Ks.resize(ndof);
+    const double theta = std::clamp(ph.consistent_mass_fraction, 0.0, 1.0);
+    consistent = theta > 0;
+    if (consistent) {
+      Mc = assemble_mass(md_.vox_node_, dof, ndof, md_.mass_, ph.density, theta, h);
+      Mc_nodes = NodeBlockProduct(Mc);
+    }
+    for (std::size_t n = 0; n < nn; ++n) {
+      if (dof[n] < 0) continue;
+      const double m = md_.mass_[n] * ph.density;
+      double c = 0;
+      for (const auto& nf : tm.node_forces) c += nf->damping({m, md_.area_[n]});
+      double k = 0;
+      if (md_.fixed_[n] && clamp_springs) {
+        k = tm.clamp_stiffness * md_.clamp_area_[n];
+        c += tm.clamp_damping * md_.clamp_area_[n];
+      }
+      for (int d = 0; d < 3; ++d) M[dof[n] + d] = m, Cd[dof[n] + d] = c, Ks[dof[n] + d] = k;
+    }
+    clamp_faces = clamp_springs && !md_.clamp_faces_.empty();
+    // Trapezoidal rule: a1 = 4 (u1 - u - dt v - dt^2/4 a) / dt^2, v1 = v + dt/2 (a + a1).
+    ca = 4.0 / (dt * dt), cv = 2.0 / dt;
+    for (const auto& c : md_.cfg_.colliders) {
+      Vec3d n = c.normal;
+      const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+      for (double& x : n) x /= len;
+      planes.push_back({c.point, n, c.friction});
+    }
+    for (const auto& c : tm.planes) planes.push_back({c.point, c.normal, c.friction});
+    k_pen = 2.0 * ph.youngs_modulus * h;  // N/m per node: sub-micron sag, mild tangent
+  }
+
+  //! The clamp faces' springs and dashpots as an elastic foundation, integrated with the
+  //! face's bilinear shape functions (the consistent matrix, h^2/36 times 4, 2, 1 for a corner
+  //! with itself, along an edge, across): exact for the linear field of a face that tilts, so
+  //! the clamp's rotational stiffness is k times the face's second moment of area on any
+  //! mesh (lumped at the corners it is 1 + 2 (h/H)^2 times that, for a face H wide).
+  double foundation(int q, int r) const {
     const int same = ((q ^ r) & 1 ? 0 : 1) + ((q ^ r) & 2 ? 0 : 1);  // axes in common
     return h * h / 36.0 * (same == 2 ? 4.0 : same == 1 ? 2.0 : 1.0);
-  };
-  const bool clamp_faces = clamp_springs && !clamp_faces_.empty();
-  // Trapezoidal rule: a1 = 4 (u1 - u - dt v - dt^2/4 a) / dt^2, v1 = v + dt/2 (a + a1).
-  const double ca = 4.0 / (dt * dt), cv = 2.0 / dt;
-  std::vector<Plane> planes;
-  for (const auto& c : cfg_.colliders) {
-    Vec3d n = c.normal;
-    const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    for (double& x : n) x /= len;
-    planes.push_back({c.point, n, c.friction});
   }
-  if (ph.ground) planes.push_back({{0, 0, ph.ground_height}, {0, 0, 1}, ph.ground_friction});
-  const double k_pen = 2.0 * ph.youngs_modulus * h;  // N/m per node: sub-micron sag, mild tangent
-  // Step matrix A = diag(ca M + cv C + springs) + (1 + cv beta) Kt (+ contact penalties); Kt
-  // starts as K0 and is replaced by the tangent at the current state when Newton slows down
-  // (the viscous stress of stiffness damping has about beta cv times its elastic tangent).
-  SpMat diagA(ndof, ndof);  // (ca + cv alpha) M + cv Cd + Ks
-  {
-    const double cm = ca + cv * ph.rayleigh_alpha;
+
+  //! Step matrix A = diag(ca M + cv C + springs) + (1 + cv beta) Kt (+ contact penalties); Kt
+  //! starts as K0 and is replaced by the tangent at the current state when Newton slows down
+  //! (the viscous stress of stiffness damping has about beta cv times its elastic tangent).
+  bool setup_step_matrix() {
+    diagA = SpMat(ndof, ndof);  // (ca + cv alpha) M + cv Cd + Ks
+    const double cm = ca + cv * tm.rayleigh_alpha;
     std::vector<Eigen::Triplet<double>> d;
     for (int i = 0; i < ndof; ++i)
       d.emplace_back(i, i, (consistent ? 0.0 : cm * M[i]) + cv * Cd[i] + Ks[i]);
     if (clamp_faces)
-      for (const auto& f : clamp_faces_)
+      for (const auto& f : md_.clamp_faces_)
         for (int q = 0; q < 4; ++q)
           for (int r = 0; r < 4; ++r)
-            for (int a = 0; a < 3; ++a)
-              d.emplace_back(dof[static_cast<std::size_t>(f[q])] + a,
-                             dof[static_cast<std::size_t>(f[r])] + a,
-                             (ph.clamp_stiffness + cv * ph.clamp_damping) * foundation(q, r));
+            for (int k = 0; k < 3; ++k)
+              d.emplace_back(dof[static_cast<std::size_t>(f[q])] + k,
+                             dof[static_cast<std::size_t>(f[r])] + k,
+                             (tm.clamp_stiffness + cv * tm.clamp_damping) * foundation(q, r));
     diagA.setFromTriplets(d.begin(), d.end());
     if (consistent) diagA += cm * Mc;
+    Kt = K0;
+    solver.analyze(K0 + diagA);
+    active.assign(nn * std::max<std::size_t>(planes.size(), 1), 0);
+    if (!factor()) return fail("the step matrix is singular");
+    return true;
   }
-  SpMat Kt = K0;
-  BlockLDLT solver;
-  solver.analyze(K0 + diagA);
-  std::vector<char> active(nn * std::max<std::size_t>(planes.size(), 1), 0);
-  auto factor = [&] {
+
+  bool factor() {
     PhaseTimer timer(tr.time_factor);
-    SpMat A = diagA + (1.0 + cv * ph.rayleigh_beta) * Kt;
+    SpMat A = diagA + (1.0 + cv * tm.rayleigh_beta) * Kt;
     for (std::size_t n = 0; n < nn; ++n)
       for (std::size_t p = 0; p < planes.size(); ++p)
         if (dof[n] >= 0 && active[n * planes.size() + p])
-          for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b)
-              A.coeffRef(dof[n] + a, dof[n] + b) += k_pen * planes[p].n[a] * planes[p].n[b];
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+              A.coeffRef(dof[n] + i, dof[n] + j) += k_pen * planes[p].n[i] * planes[p].n[j];
     ++tr.factorizations;
     return solver.factorize(A);
-  };
-  if (!factor()) {
-    tr.ok = false;
-    tr.failure = "the step matrix is singular";
-    return tr;
   }
 
-  // Constitutive state per Gauss point.
-  const bool plastic = std::isfinite(ph.yield_stress);
-  const bool visco = ph.prony_g > 0;
-  HenckyJ2 j2;  // von Mises with linear hardening (Hencky elasticity)
-  if (plastic) {
-    j2.mu = mu0;
-    j2.lambda = lambda0;
-    j2.yield_stress = std::max(ph.yield_stress, 0.0);
-    j2.hardening = std::max(ph.hardening, 0.0);
+  //! Plastic and viscous state per Gauss point, the motion's vectors, the shape-function
+  //! gradients in physical units (1/m) at the 8 Gauss points (the bubbles' are zero for the
+  //! plain trilinear element, whose amplitudes stay zero), and the vector kernels' setup.
+  void setup_constitutive() {
+    plastic = std::isfinite(tm.yield_stress);
+    visco = tm.prony_g > 0;
+    if (plastic) {
+      j2.mu = mu0;
+      j2.lambda = lambda0;
+      j2.yield_stress = std::max(tm.yield_stress, 0.0);
+      j2.hardening = std::max(tm.hardening, 0.0);
+    }
+    const std::size_t ngp = nv * 8;
+    if (plastic) {
+      fp_inv.assign(9 * ngp, 0.0);
+      for (std::size_t g = 0; g < ngp; ++g)
+        fp_inv[9 * g] = fp_inv[9 * g + 4] = fp_inv[9 * g + 8] = 1;
+      pstate.assign(ngp, 0.0);  // equivalent plastic strain per Gauss point
+      fp_inv_new = fp_inv;
+      pstate_new = pstate;
+    }
+    if (visco) qv.assign(9 * ngp, 0.0), qv_new = qv;
+    rv = visco ? dt / tm.prony_tau : 0.0;
+    u.assign(3 * nn, 0.0), v.assign(3 * nn, 0.0), a.assign(3 * nn, 0.0);
+    u1.resize(3 * nn), v1.resize(3 * nn), a1.resize(3 * nn);
+    al.assign(bubbles ? 9 * nv : 0, 0.0), ald.assign(al.size(), 0.0), al1.resize(al.size()),
+        ald1.resize(al.size()), ral.resize(al.size());
+    R.resize(ndof), du.resize(ndof), wa.resize(ndof), Mwa.resize(ndof);
+    for (int q = 0; q < 8; ++q)
+      for (int l = 0; l < kShapes; ++l)
+        for (int c = 0; c < 3; ++c) G[q][l][c] = (l < 8 || bubbles) ? S.dN[q][l][c] / h : 0.0;
+    fint.resize(3 * nn);
+    kelvin_voigt = tm.rayleigh_beta != 0;
+    if constexpr (kLaneLaw) setup_vector_kernels();
   }
-  const std::size_t ngp = nv * 8;
-  std::vector<double> fp_inv, fp_inv_new, pstate, pstate_new, qv, qv_new, pel_prev, pel_new;
-  if (plastic) {
-    fp_inv.assign(9 * ngp, 0.0);
-    for (std::size_t g = 0; g < ngp; ++g) fp_inv[9 * g] = fp_inv[9 * g + 4] = fp_inv[9 * g + 8] = 1;
-    pstate.assign(ngp, 0.0);  // equivalent plastic strain per Gauss point
-    fp_inv_new = fp_inv;
-    pstate_new = pstate;
+
+  //! The elastic passes of the StVK, Neo-Hookean and corotated laws run in the vector kernel
+  //! (ElementKernel.hpp: the same arithmetic, the Gauss points as lanes); so do the element
+  //! tangents by central differences of the first two (the corotated law's analytic one stays
+  //! in the scalar loop).
+  void setup_vector_kernels() {
+    vector_pass = md_.vector_kernels_ && !plastic;
+    vector_tangent = vector_pass && !HasPk1Jacobian<Law>::value;
+    for (int q = 0; q < 8; ++q)
+      for (int l = 0; l < kShapes; ++l)
+        for (int c = 0; c < 3; ++c) Gl[l][c][q] = G[q][l][c];
+    pass.law = kStvk                                        ? ElasticLaw::StVK
+               : std::is_same_v<Law, materials::NeoHookean> ? ElasticLaw::NeoHookean
+                                                            : ElasticLaw::Corotated;
+    pass.voxels = nv;
+    pass.vox_node = md_.vox_node_.data();
+    pass.X = md_.X_.data();
+    pass.vfac = vfac.data();
+    pass.G = Gl;
+    pass.weight = h * h * h / 8.0;
+    pass.mu = law.mu;
+    pass.lambda = law.lambda;
+    pass.kv_beta = tm.rayleigh_beta;
+    pass.kv_mu = mu0;
+    pass.kv_lambda = lambda0;
+    pass.prony_rate = rv;
+    pass.prony_rate_g = rv * tm.prony_g;
+    vtangent.law = pass.law;
+    vtangent.G = Gl;
+    vtangent.dN = S.dN;
+    vtangent.mu = law.mu;
+    vtangent.lambda = law.lambda;
+    vtangent.shapes = bubbles ? kShapes : 8;
   }
-  if (visco) qv.assign(9 * ngp, 0.0), qv_new = qv;
-  const double rv = visco ? dt / ph.prony_tau : 0.0;
 
-  std::vector<double> u(3 * nn, 0.0), v(3 * nn, 0.0), a(3 * nn, 0.0);
-  std::vector<double> u1(3 * nn), v1(3 * nn), a1(3 * nn);
-  // Bubble amplitudes per voxel (9: axis i, component d at 3 i + d), their rates (trapezoidal,
-  // for the viscous stress), trial values, and their residual (element-local equations).
-  std::vector<double> al(bubbles ? 9 * nv : 0, 0.0), ald(al.size(), 0.0), al1(al.size()),
-      ald1(al.size()), ral(al.size());
-  Eigen::VectorXd R(ndof), du(ndof), wa(ndof), Mwa(ndof);
-  const ElementStencil& S = ElementStencil::get();
-  double step_max_mises = 0;
-  long step_continued = 0;  // StVK: Gauss points continued at the step's predictor
-
-  // Stress of the elastic law, and of the plastic return map from the state at the start of
-  // the step (Gauss point g): P, the Kirchhoff stress, the trial state and Fp^-1.
-  // elastic_stress returns whether StVK's screen sent F to the continuation.
-  auto elastic_stress = [&](const double F[9], double P[9]) -> bool {
+  //! Stress P of the elastic law at F; whether StVK's screen sent F to the continuation.
+  bool elastic_stress(const double F[9], double P[9]) const {
     bool continued = false;
     materials::Mat3 Fm, Pm;
     std::copy(F, F + 9, Fm.a);
     if constexpr (std::is_same_v<Law, materials::FixedCorotated>) {
-      // The rotation by Newton's polar iteration: ~10x cheaper than the SVD, which took 84 %
-      // of a corotated run (bench_diagnose); the SVD stays for inverted elements.
-      materials::Mat3 R;
-      if (!materials::polar_rotation_newton(Fm, R)) R = materials::polar_rotation(Fm);
-      Pm = law.pk1(Fm, R);
+      // The rotation by Newton's polar iteration: ~10x cheaper than the SVD; the SVD stays for
+      // inverted elements.
+      materials::Mat3 Rm;
+      if (!materials::polar_rotation_newton(Fm, Rm)) Rm = materials::polar_rotation(Fm);
+      Pm = law.pk1(Fm, Rm);
     } else {
       Pm = law.pk1(Fm);
       if constexpr (std::is_same_v<Law, materials::StVK>) {
@@ -714,9 +826,12 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     }
     std::copy(Pm.a, Pm.a + 9, P);
     return continued;
-  };
-  auto plastic_stress = [&](std::size_t g, const double F[9], double P[9], double tau[9],
-                            double* state, double* fp_inv_out) -> bool {
+  }
+
+  //! Stress of the plastic return map from the state at the start of the step (Gauss point
+  //! g): P, the Kirchhoff stress tau, the trial state and Fp^-1.
+  bool plastic_stress(std::size_t g, const double F[9], double P[9], double tau[9], double* state,
+                      double* fp_inv_out) const {
     double Fe[9], Finv[9];
     mat_mul(F, &fp_inv[9 * g], Fe);
     *state = pstate[g];
@@ -728,61 +843,12 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
         P[3 * i + j] = tau[3 * i] * Finv[3 * j] + tau[3 * i + 1] * Finv[3 * j + 1] +
                        tau[3 * i + 2] * Finv[3 * j + 2];
     return true;
-  };
-
-  // Shape-function gradients in physical units (1/m) at the 8 Gauss points (the bubbles' are
-  // zero for the plain trilinear element, whose amplitudes stay zero).
-  double G[8][kShapes][3];
-  for (int q = 0; q < 8; ++q)
-    for (int l = 0; l < kShapes; ++l)
-      for (int c = 0; c < 3; ++c) G[q][l][c] = (l < 8 || bubbles) ? S.dN[q][l][c] / h : 0.0;
-
-  // Internal force of the state u1 into f (3 per node); trial constitutive states.
-  std::vector<double> fint(3 * nn);
-  const bool kelvin_voigt = ph.rayleigh_beta != 0;
-  // with_mises: also the step's largest von Mises stress (a diagnostic that scales the yield
-  // probes: taken once per step, at the predictor, not on every Newton iterate).
-  // The elastic passes of the StVK, Neo-Hookean and corotated laws run in the vector kernel
-  // (ElementKernel.hpp: the same arithmetic, the Gauss points as lanes); so do the element
-  // tangents by central differences of the first two (the corotated law's analytic one stays
-  // in the scalar loop).
-  constexpr bool kStvk = std::is_same_v<Law, materials::StVK>;
-  constexpr bool kLaneLaw = kStvk || std::is_same_v<Law, materials::NeoHookean> ||
-                            std::is_same_v<Law, materials::FixedCorotated>;
-  bool vector_pass = false, vector_tangent = false;
-  ElasticForcePass pass;
-  ElasticTangent vtangent;
-  alignas(64) double Gl[kShapes][3][8];
-  if constexpr (kLaneLaw) {
-    vector_pass = vector_kernels_ && !plastic;
-    vector_tangent = vector_pass && !HasPk1Jacobian<Law>::value;
-    for (int q = 0; q < 8; ++q)
-      for (int l = 0; l < kShapes; ++l)
-        for (int c = 0; c < 3; ++c) Gl[l][c][q] = G[q][l][c];
-    pass.law = kStvk                                        ? ElasticLaw::StVK
-               : std::is_same_v<Law, materials::NeoHookean> ? ElasticLaw::NeoHookean
-                                                            : ElasticLaw::Corotated;
-    pass.voxels = nv;
-    pass.vox_node = vox_node_.data();
-    pass.X = X_.data();
-    pass.vfac = vfac.data();
-    pass.G = Gl;
-    pass.weight = h * h * h / 8.0;
-    pass.mu = law.mu;
-    pass.lambda = law.lambda;
-    pass.kv_beta = ph.rayleigh_beta;
-    pass.kv_mu = mu0;
-    pass.kv_lambda = lambda0;
-    pass.prony_rate = rv;
-    pass.prony_rate_g = rv * ph.prony_g;
-    vtangent.law = pass.law;
-    vtangent.G = Gl;
-    vtangent.dN = S.dN;
-    vtangent.mu = law.mu;
-    vtangent.lambda = law.lambda;
-    vtangent.shapes = bubbles ? kShapes : 8;
   }
-  auto internal = [&](bool with_mises) -> bool {
+
+  //! Internal force of the state u1 into fint (3 per node); trial constitutive states.
+  //! with_mises: also the step's largest von Mises stress (a diagnostic that scales the yield
+  //! probes: taken once per step, at the predictor, not on every Newton iterate).
+  bool internal(bool with_mises) {
     PhaseTimer timer(tr.time_internal);
     std::fill(fint.begin(), fint.end(), 0.0);
     if (with_mises) step_max_mises = 0, step_continued = 0;
@@ -803,8 +869,8 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     for (std::size_t vx = 0; vx < nv; ++vx) {
       double xe[kShapes][3] = {}, ve[kShapes][3] = {}, fe[kShapes][3] = {};
       for (int l = 0; l < 8; ++l) {
-        const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
-        for (int d = 0; d < 3; ++d) xe[l][d] = X_[n][d] + u1[3 * n + d];
+        const std::size_t n = static_cast<std::size_t>(md_.vox_node_[vx][l]);
+        for (int d = 0; d < 3; ++d) xe[l][d] = md_.X_[n][d] + u1[3 * n + d];
         if (kelvin_voigt)  // nodal velocities only for the viscous stress
           for (int d = 0; d < 3; ++d) ve[l][d] = v1[3 * n + d];
       }
@@ -813,58 +879,10 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
           xe[8 + i / 3][i % 3] = al1[9 * vx + static_cast<std::size_t>(i)];
           ve[8 + i / 3][i % 3] = ald1[9 * vx + static_cast<std::size_t>(i)];
         }
-      for (int q = 0; q < 8; ++q) {
-        const std::size_t g = 8 * vx + static_cast<std::size_t>(q);
-        double F[9], P[9], tau[9];
-        grad_at(G[q], xe, F);
-        if (plastic) {
-          if (!plastic_stress(g, F, P, tau, &pstate_new[g], &fp_inv_new[9 * g])) return false;
-        } else {
-          if (elastic_stress(F, P) && with_mises) ++step_continued;
-        }
-        if (visco) {
-          // Relaxing part q: dq/dt = (g P_el - q) / tau (backward Euler); stress P_el - q.
-          for (int i = 0; i < 9; ++i) {
-            qv_new[9 * g + i] = (qv[9 * g + i] + rv * ph.prony_g * P[i]) / (1.0 + rv);
-            P[i] -= qv_new[9 * g + i];
-          }
-        }
-        if (kelvin_voigt) {
-          // Stiffness-proportional (Kelvin-Voigt) damping as a viscous stress: beta times the
-          // linear elastic law applied to the Green strain rate sym(F^T dF/dt), P_v = F S_v.
-          // It is beta K v for small motions, and it does not resist rigid rotation (beta K0 v
-          // would: a cantilever swinging through large angles was damped spuriously).
-          double Fd[9], Ed[9];
-          grad_at(G[q], ve, Fd);  // dF/dt
-          for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j) {
-              double e = 0;
-              for (int k = 0; k < 3; ++k)
-                e += F[3 * k + i] * Fd[3 * k + j] + Fd[3 * k + i] * F[3 * k + j];
-              Ed[3 * i + j] = 0.5 * e;
-            }
-          const double tr = Ed[0] + Ed[4] + Ed[8];
-          double Sv[9];
-          for (int i = 0; i < 9; ++i) Sv[i] = ph.rayleigh_beta * 2.0 * mu0 * Ed[i];
-          for (int i = 0; i < 3; ++i) Sv[4 * i] += ph.rayleigh_beta * lambda0 * tr;
-          for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j)
-              P[3 * i + j] +=
-                  F[3 * i] * Sv[j] + F[3 * i + 1] * Sv[3 + j] + F[3 * i + 2] * Sv[6 + j];
-        }
-        for (int i = 0; i < 9; ++i) P[i] *= vfac[vx];
-        if (with_mises) {
-          if (!plastic)
-            for (int i = 0; i < 3; ++i)
-              for (int j = 0; j < 3; ++j)
-                tau[3 * i + j] =
-                    P[3 * i] * F[3 * j] + P[3 * i + 1] * F[3 * j + 1] + P[3 * i + 2] * F[3 * j + 2];
-          step_max_mises = std::max(step_max_mises, mises(tau));
-        }
-        scatter_at(G[q], P, h * h * h / 8.0, fe);
-      }
+      for (int q = 0; q < 8; ++q)
+        if (!gauss_point_force(vx, q, xe, ve, with_mises, fe)) return false;
       for (int l = 0; l < 8; ++l) {  // one scatter per voxel
-        const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
+        const std::size_t n = static_cast<std::size_t>(md_.vox_node_[vx][l]);
         for (int i = 0; i < 3; ++i) fint[3 * n + i] += fe[l][i];
       }
       if (bubbles)
@@ -872,90 +890,155 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
           ral[9 * vx + static_cast<std::size_t>(i)] = fe[8 + i / 3][i % 3];
     }
     return true;
-  };
+  }
 
-  // The element tangent of voxel vx at positions xe in the scalar element loop.
-  // w: h/8 times the voxel's factors, as for the kernel.
-  auto element_tangent = [&](std::size_t vx, const double(&xe)[kShapes][3], double w, ElemMat& Ke) {
+  //! Gauss point q of voxel vx in the scalar element loop: its stress (elastic or plastic,
+  //! relaxed, with the viscous stress, times the voxel's factor) scattered into fe.
+  bool gauss_point_force(std::size_t vx, int q, const double (&xe)[kShapes][3],
+                         const double (&ve)[kShapes][3], bool with_mises,
+                         double (&fe)[kShapes][3]) {
+    const std::size_t g = 8 * vx + static_cast<std::size_t>(q);
+    double F[9], P[9], tau[9];
+    grad_at(G[q], xe, F);
+    if (plastic) {
+      if (!plastic_stress(g, F, P, tau, &pstate_new[g], &fp_inv_new[9 * g])) return false;
+    } else {
+      if (elastic_stress(F, P) && with_mises) ++step_continued;
+    }
+    if (visco) {
+      // Relaxing part q: dq/dt = (g P_el - q) / tau (backward Euler); stress P_el - q.
+      for (int i = 0; i < 9; ++i) {
+        qv_new[9 * g + i] = (qv[9 * g + i] + rv * tm.prony_g * P[i]) / (1.0 + rv);
+        P[i] -= qv_new[9 * g + i];
+      }
+    }
+    if (kelvin_voigt) add_viscous_stress(q, F, ve, P);
+    for (int i = 0; i < 9; ++i) P[i] *= vfac[vx];
+    if (with_mises) {
+      if (!plastic)
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            tau[3 * i + j] =
+                P[3 * i] * F[3 * j] + P[3 * i + 1] * F[3 * j + 1] + P[3 * i + 2] * F[3 * j + 2];
+      step_max_mises = std::max(step_max_mises, mises(tau));
+    }
+    scatter_at(G[q], P, h * h * h / 8.0, fe);
+    return true;
+  }
+
+  //! Stiffness-proportional (Kelvin-Voigt) damping as a viscous stress: beta times the linear
+  //! elastic law applied to the Green strain rate sym(F^T dF/dt), P_v = F S_v. It is beta K v
+  //! for small motions, and it does not resist rigid rotation (beta K0 v would: a cantilever
+  //! swinging through large angles would be damped spuriously).
+  void add_viscous_stress(int q, const double F[9], const double (&ve)[kShapes][3],
+                          double P[9]) const {
+    double Fd[9], Ed[9];
+    grad_at(G[q], ve, Fd);  // dF/dt
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        double e = 0;
+        for (int k = 0; k < 3; ++k)
+          e += F[3 * k + i] * Fd[3 * k + j] + Fd[3 * k + i] * F[3 * k + j];
+        Ed[3 * i + j] = 0.5 * e;
+      }
+    const double trace = Ed[0] + Ed[4] + Ed[8];
+    double Sv[9];
+    for (int i = 0; i < 9; ++i) Sv[i] = tm.rayleigh_beta * 2.0 * mu0 * Ed[i];
+    for (int i = 0; i < 3; ++i) Sv[4 * i] += tm.rayleigh_beta * lambda0 * trace;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        P[3 * i + j] += F[3 * i] * Sv[j] + F[3 * i + 1] * Sv[3 + j] + F[3 * i + 2] * Sv[6 + j];
+  }
+
+  //! dP/dF at Gauss point g (deformation gradient F) into D: of the plastic return map from
+  //! the step's start by forward differences (10 return maps, not 18: the tangent only steers
+  //! Newton, whose stopping test is on the residual's correction, so its O(eps) error costs
+  //! nothing in accuracy), the law's analytic Jacobian, or central differences.
+  void stress_jacobian(std::size_t g, const double F[9], double (&D)[9][9]) const {
+    if (plastic) {
+      const double eps = 1e-7;
+      double P0[9] = {}, tau[9], st;
+      plastic_stress(g, F, P0, tau, &st, nullptr);
+      for (int j = 0; j < 9; ++j) {
+        double Fp[9], Pp[9] = {};
+        std::copy(F, F + 9, Fp);
+        Fp[j] += eps;
+        plastic_stress(g, Fp, Pp, tau, &st, nullptr);
+        for (int i = 0; i < 9; ++i) D[i][j] = (Pp[i] - P0[i]) / eps;
+      }
+    } else if constexpr (HasPk1Jacobian<Law>::value) {
+      materials::Mat3 Fm;
+      std::copy(F, F + 9, Fm.a);
+      law.pk1_jacobian(Fm, D);  // analytic: one SVD instead of 18 (corotated)
+    } else {
+      const double eps = 1e-6;
+      for (int j = 0; j < 9; ++j) {
+        double Fp[9], Fm[9], Pp[9] = {}, Pm[9] = {};
+        std::copy(F, F + 9, Fp);
+        std::copy(F, F + 9, Fm);
+        Fp[j] += eps;
+        Fm[j] -= eps;
+        elastic_stress(Fp, Pp);
+        elastic_stress(Fm, Pm);
+        for (int i = 0; i < 9; ++i) D[i][j] = (Pp[i] - Pm[i]) / (2 * eps);
+      }
+    }
+  }
+
+  //! The element tangent of voxel vx at positions xe in the scalar element loop.
+  //! w: h/8 times the voxel's factors, as for the kernel.
+  void element_tangent(std::size_t vx, const double (&xe)[kShapes][3], double w,
+                       ElemMat& Ke) const {
     const int nshape = bubbles ? kShapes : 8;
     Ke = ElemMat::Zero();
     for (int q = 0; q < 8; ++q) {
       double F[9], D[9][9];
       grad_at(G[q], xe, F);
-      const std::size_t g = 8 * vx + static_cast<std::size_t>(q);
-      if (plastic) {
-        // The consistent tangent of the return map by forward differences (10 return maps,
-        // not 18: the tangent only steers Newton, whose stopping test is on the residual's
-        // correction, so its O(eps) error costs nothing in accuracy).
-        const double eps = 1e-7;
-        double P0[9] = {}, tau[9], st;
-        plastic_stress(g, F, P0, tau, &st, nullptr);
-        for (int j = 0; j < 9; ++j) {
-          double Fp[9], Pp[9] = {};
-          std::copy(F, F + 9, Fp);
-          Fp[j] += eps;
-          plastic_stress(g, Fp, Pp, tau, &st, nullptr);
-          for (int i = 0; i < 9; ++i) D[i][j] = (Pp[i] - P0[i]) / eps;
-        }
-      } else if constexpr (HasPk1Jacobian<Law>::value) {
-        materials::Mat3 Fm;
-        std::copy(F, F + 9, Fm.a);
-        law.pk1_jacobian(Fm, D);  // analytic: one SVD instead of 18 (corotated)
-      } else {
-        const double eps = 1e-6;
-        for (int j = 0; j < 9; ++j) {
-          double Fp[9], Fm[9], Pp[9] = {}, Pm[9] = {};
-          std::copy(F, F + 9, Fp);
-          std::copy(F, F + 9, Fm);
-          Fp[j] += eps;
-          Fm[j] -= eps;
-          elastic_stress(Fp, Pp);
-          elastic_stress(Fm, Pm);
-          for (int i = 0; i < 9; ++i) D[i][j] = (Pp[i] - Pm[i]) / (2 * eps);
-        }
-      }
+      stress_jacobian(8 * vx + static_cast<std::size_t>(q), F, D);
       // T[l][a][b][e] = sum_c dN_l,c Dsym[ac][be]; Ke[la][mb] += w sum_e T dN_m,e
       double T[kShapes][3][3][3];
       for (int l = 0; l < nshape; ++l)
-        for (int a = 0; a < 3; ++a)
+        for (int i = 0; i < 3; ++i)
           for (int b = 0; b < 3; ++b)
             for (int e = 0; e < 3; ++e) {
               double t = 0;
               for (int c = 0; c < 3; ++c)
-                t += S.dN[q][l][c] * 0.5 * (D[3 * a + c][3 * b + e] + D[3 * b + e][3 * a + c]);
-              T[l][a][b][e] = w * t;
+                t += S.dN[q][l][c] * 0.5 * (D[3 * i + c][3 * b + e] + D[3 * b + e][3 * i + c]);
+              T[l][i][b][e] = w * t;
             }
       // Ke is symmetric (D symmetrised): its upper triangle only, mirrored below.
       for (int l = 0; l < nshape; ++l)
-        for (int a = 0; a < 3; ++a)
+        for (int i = 0; i < 3; ++i)
           for (int m = l; m < nshape; ++m)
-            for (int b = m == l ? a : 0; b < 3; ++b)
-              Ke(3 * l + a, 3 * m + b) += T[l][a][b][0] * S.dN[q][m][0] +
-                                          T[l][a][b][1] * S.dN[q][m][1] +
-                                          T[l][a][b][2] * S.dN[q][m][2];
+            for (int b = m == l ? i : 0; b < 3; ++b)
+              Ke(3 * l + i, 3 * m + b) += T[l][i][b][0] * S.dN[q][m][0] +
+                                          T[l][i][b][1] * S.dN[q][m][1] +
+                                          T[l][i][b][2] * S.dN[q][m][2];
     }
     for (int j = 0; j < 3 * nshape; ++j)
       for (int i = j + 1; i < 3 * nshape; ++i) Ke(i, j) = Ke(j, i);
-  };
-  // A voxel's node positions for the displacements uu, and its bubble amplitudes from aa.
-  auto element_coords = [&](std::size_t vx, const std::vector<double>& uu,
-                            const std::vector<double>& aa, double xe[kShapes][3]) {
+  }
+
+  //! A voxel's node positions for the displacements uu, and its bubble amplitudes from aa.
+  void element_coords(std::size_t vx, const std::vector<double>& uu, const std::vector<double>& aa,
+                      double xe[kShapes][3]) const {
     for (int l = 0; l < 8; ++l) {
-      const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
-      for (int d = 0; d < 3; ++d) xe[l][d] = X_[n][d] + uu[3 * n + d];
+      const std::size_t n = static_cast<std::size_t>(md_.vox_node_[vx][l]);
+      for (int d = 0; d < 3; ++d) xe[l][d] = md_.X_[n][d] + uu[3 * n + d];
     }
     if (bubbles)
       for (int i = 0; i < 9; ++i) xe[8 + i / 3][i % 3] = aa[9 * vx + static_cast<std::size_t>(i)];
-  };
-  // Tangent stiffness at u1: dP/dF of the law (with plasticity: of the return map from the
-  // step's start) by central differences per Gauss point (symmetrised), scaled like the stress
-  // (region factor, relaxed viscous part).
-  auto tangent = [&]() -> bool {
+  }
+
+  //! Tangent stiffness at u1: dP/dF of the law (with plasticity: of the return map from the
+  //! step's start) per Gauss point (symmetrised), scaled like the stress (region factor,
+  //! relaxed viscous part).
+  bool tangent() {
     PhaseTimer timer(tr.time_tangent);
     double* kval = Kt.valuePtr();
     std::fill(kval, kval + Kt.nonZeros(), 0.0);
     std::size_t slot = 0;
-    const double vscale = visco ? 1.0 - ph.prony_g * rv / (1.0 + rv) : 1.0;
+    const double vscale = visco ? 1.0 - tm.prony_g * rv / (1.0 + rv) : 1.0;
     Condensed ce;
     for (std::size_t vx = 0; vx < nv; ++vx) {
       double xe[kShapes][3] = {};
@@ -975,38 +1058,40 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
         ce.Kc = Ke.block<24, 24>(0, 0);
       }
       for (int l = 0; l < 8; ++l) {
-        const int dl = dof[static_cast<std::size_t>(vox_node_[vx][l])];
+        const int dl = dof[static_cast<std::size_t>(md_.vox_node_[vx][l])];
         if (dl < 0) continue;
         for (int m = 0; m < 8; ++m) {
-          const int dm = dof[static_cast<std::size_t>(vox_node_[vx][m])];
+          const int dm = dof[static_cast<std::size_t>(md_.vox_node_[vx][m])];
           if (dm < 0) continue;
-          for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b) kval[kslot[slot++]] += ce.Kc(3 * l + a, 3 * m + b);
+          for (int i = 0; i < 3; ++i)
+            for (int b = 0; b < 3; ++b) kval[kslot[slot++]] += ce.Kc(3 * l + i, 3 * m + b);
         }
       }
     }
     return true;
-  };
+  }
 
-  // Sampling: the nodes any channel reads, stored per step.
-  double t_last = 0;
-  for (const auto& r : req)
-    if (!r.t.empty()) t_last = std::max(t_last, r.t.back());
-  // One step past the last sample's: a sample then never sits at the end of the history, and
-  // its value does not depend on which later samples were asked for (a run cut at a horizon
-  // gives the full run's values bit for bit).
-  const long nsteps = static_cast<long>(std::ceil(t_last / dt - 1e-9)) + 1;
-  std::vector<int> sample_slot(nn, -1);
-  std::vector<std::size_t> sampled;
-  for (const auto& r : req)
-    for (int l = 0; l < 8; ++l) {
-      const std::size_t n = static_cast<std::size_t>(r.at.node[l]);
-      if (sample_slot[n] < 0)
-        sample_slot[n] = static_cast<int>(sampled.size()), sampled.push_back(n);
-    }
-  const std::size_t ns = sampled.size();
-  std::vector<double> hist_u(9 * ns * static_cast<std::size_t>(nsteps + 1));  // u, v, a
-  auto record = [&](long s) {
+  //! Sampling: the nodes any channel reads, stored per step, for one step past the last
+  //! sample's (a sample then never sits at the end of the history, and its value does not
+  //! depend on which later samples were asked for: a run cut at a horizon gives the full run's
+  //! values bit for bit).
+  void setup_sampling(const std::vector<ChannelRequest>& req) {
+    double t_last = 0;
+    for (const auto& r : req)
+      if (!r.t.empty()) t_last = std::max(t_last, r.t.back());
+    nsteps = static_cast<long>(std::ceil(t_last / dt - 1e-9)) + 1;
+    sample_slot.assign(nn, -1);
+    for (const auto& r : req)
+      for (int l = 0; l < 8; ++l) {
+        const std::size_t n = static_cast<std::size_t>(r.at.node[l]);
+        if (sample_slot[n] < 0)
+          sample_slot[n] = static_cast<int>(sampled.size()), sampled.push_back(n);
+      }
+    ns = sampled.size();
+    hist_u.resize(9 * ns * static_cast<std::size_t>(nsteps + 1));
+  }
+
+  void record(long s) {
     double* out = &hist_u[9 * ns * static_cast<std::size_t>(s)];
     for (std::size_t i = 0; i < ns; ++i)
       for (int d = 0; d < 3; ++d) {
@@ -1014,42 +1099,46 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
         out[9 * i + 3 + d] = v[3 * sampled[i] + d];
         out[9 * i + 6 + d] = a[3 * sampled[i] + d];
       }
-  };
+  }
 
-  // Applied loads: gravity plus the deck's force regions shared by mass over free nodes.
-  std::vector<double> region_mass(cfg_.forces.size(), 0.0);
-  for (std::size_t n = 0; n < nn; ++n)
-    if (!fixed_[n])
-      for (std::size_t r = 0; r < cfg_.forces.size(); ++r)
-        if (cfg_.forces[r].region.contains(X_[n])) region_mass[r] += mass_[n];
-  // A force switched on or off exactly at a step time counts half there (the mean of its
-  // one-sided limits): the trapezoidal rule then delivers the pulse's exact impulse. Counting
-  // it fully (or not at all) at its end adds (or drops) half a step of impulse; on a 0.3 s
-  // pulse with dt = 2 ms that changed a cantilever's free swing by 5 %. A force that starts
-  // at t = 0 acts fully from the initial state.
-  const double t_tol = 1e-6 * dt;
-  auto on_fraction = [&](const ForceConfig& fc, double t) {
+  //! Applied loads: gravity plus the deck's force regions shared by mass over free nodes.
+  void setup_loads() {
+    region_mass.assign(md_.cfg_.forces.size(), 0.0);
+    for (std::size_t n = 0; n < nn; ++n)
+      if (!md_.fixed_[n])
+        for (std::size_t r = 0; r < md_.cfg_.forces.size(); ++r)
+          if (md_.cfg_.forces[r].region.contains(md_.X_[n])) region_mass[r] += md_.mass_[n];
+    t_tol = 1e-6 * dt;
+  }
+
+  //! A force switched on or off exactly at a step time counts half there (the mean of its
+  //! one-sided limits): the trapezoidal rule then delivers the pulse's exact impulse (counting
+  //! it fully, or not at all, at its end adds or drops half a step of impulse). A force that
+  //! starts at t = 0 acts fully from the initial state.
+  double on_fraction(const ForceConfig& fc, double t) const {
     const bool at_start = std::abs(t - fc.start) <= t_tol && fc.start > 0;
     const bool at_end = std::abs(t - fc.end) <= t_tol;
     if (at_start && at_end) return 0.0;
     if (at_start || at_end) return 0.5;
     return (t >= fc.start && t < fc.end) ? 1.0 : 0.0;
-  };
-  auto external = [&](double t, std::size_t n, double f[3]) {
-    const double m = mass_[n] * ph.density;
+  }
+
+  void external(double t, std::size_t n, double f[3]) const {
+    const double m = md_.mass_[n] * ph.density;
     for (int d = 0; d < 3; ++d) f[d] = m * ph.gravity[d];
-    if (fixed_[n]) return;
-    for (std::size_t r = 0; r < cfg_.forces.size(); ++r) {
-      const ForceConfig& fc = cfg_.forces[r];
-      if (region_mass[r] == 0.0 || !fc.region.contains(X_[n])) continue;
+    if (md_.fixed_[n]) return;
+    for (std::size_t r = 0; r < md_.cfg_.forces.size(); ++r) {
+      const ForceConfig& fc = md_.cfg_.forces[r];
+      if (region_mass[r] == 0.0 || !fc.region.contains(md_.X_[n])) continue;
       const double on = on_fraction(fc, t);
       if (on == 0.0) continue;
       for (int d = 0; d < 3; ++d)
-        f[d] += on * ph.load_scale * fc.force[d] * mass_[n] / region_mass[r];
+        f[d] += on * ph.load_scale * fc.force[d] * md_.mass_[n] / region_mass[r];
     }
-  };
-  // Initial acceleration from rest: M a0 = f_ext(0) - f_int(X) (= f_ext(0)).
-  {
+  }
+
+  //! Initial acceleration from rest: M a0 = f_ext(0) - f_int(X) (= f_ext(0)).
+  void initial_acceleration() {
     Eigen::VectorXd f0(ndof), a0(ndof);
     for (std::size_t n = 0; n < nn; ++n) {
       if (dof[n] < 0) continue;
@@ -1068,14 +1157,10 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
       if (dof[n] >= 0)
         for (int d = 0; d < 3; ++d) a[3 * n + d] = a0[dof[n] + d];
   }
-  record(0);
-  std::vector<double> a_prev = a;
-  std::vector<double> fext(3 * nn, 0.0);
-  const bool quadratic_drag = ph.drag_quadratic != 0, dry_friction = ph.coulomb_accel != 0;
-  const double tol_du = ph.newton_tolerance * h;
-  // The most compressed Gauss point of the last converged state (volume ratio J), and its
-  // voxel's centre: where a failing run's body was about to collapse.
-  auto most_compressed = [&]() {
+
+  //! The most compressed Gauss point of the last converged state (volume ratio J), and its
+  //! voxel's centre: where a failing run's body was about to collapse.
+  std::pair<double, Vec3d> most_compressed() const {
     double jmin = std::numeric_limits<double>::infinity();
     std::size_t vmin = 0;
     for (std::size_t vx = 0; vx < nv; ++vx) {
@@ -1088,202 +1173,219 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
         if (J < jmin) jmin = J, vmin = vx;
       }
     }
-    return std::make_pair(jmin, voxel_center(vmin));
-  };
-  for (long s = 1; s <= nsteps; ++s) {
-    const double t1 = dt * static_cast<double>(s);
-    // Predictor: the trapezoidal update with a1 guessed as the mean of the last two
-    // accelerations (smooth motion continues; a high mode that flips sign each step averages
-    // out instead of being doubled).
-    // The bubbles follow the predicted nodes through the condensed relation (their equations
-    // held at the end of the last step): alpha1 = alpha - L (u1 - u); or stay (retry).
-    auto predict = [&](bool bubbles_follow) {
-      for (std::size_t i = 0; i < 3 * nn; ++i)
-        u1[i] = u[i] + dt * v[i] + 0.25 * dt * dt * (a[i] + 0.5 * (a[i] + a_prev[i]));
-      for (std::size_t vx = 0; vx < al.size() / 9; ++vx) {
-        Eigen::Matrix<double, 24, 1> due;
-        for (int l = 0; l < 8; ++l) {
-          const std::size_t n = static_cast<std::size_t>(vox_node_[vx][l]);
-          for (int d = 0; d < 3; ++d) due[3 * l + d] = u1[3 * n + d] - u[3 * n + d];
-        }
-        Eigen::Map<Eigen::Matrix<double, 9, 1>> a1v(&al1[9 * vx]);
-        a1v = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(&al[9 * vx]);
-        if (bubbles_follow) {
-          double Ld[9];
-          bubble_l_times(condL[vx].data(), due.data(), 1.0, Ld);
-          for (int i = 0; i < 9; ++i) a1v[i] -= Ld[i];
-        }
+    return std::make_pair(jmin, md_.voxel_center(vmin));
+  }
+
+  //! Predictor: the trapezoidal update with a1 guessed as the mean of the last two
+  //! accelerations (smooth motion continues; a high mode that flips sign each step averages
+  //! out instead of being doubled). The bubbles follow the predicted nodes through the
+  //! condensed relation (their equations held at the end of the last step):
+  //! alpha1 = alpha - L (u1 - u); or stay (bubbles_follow false).
+  void predict(bool bubbles_follow) {
+    for (std::size_t i = 0; i < 3 * nn; ++i)
+      u1[i] = u[i] + dt * v[i] + 0.25 * dt * dt * (a[i] + 0.5 * (a[i] + a_prev[i]));
+    for (std::size_t vx = 0; vx < al.size() / 9; ++vx) {
+      Vec24 due;
+      for (int l = 0; l < 8; ++l) {
+        const std::size_t n = static_cast<std::size_t>(md_.vox_node_[vx][l]);
+        for (int d = 0; d < 3; ++d) due[3 * l + d] = u1[3 * n + d] - u[3 * n + d];
       }
-    };
-    predict(true);
-    for (std::size_t n = 0; n < nn; ++n)  // the step's applied loads
-      if (dof[n] >= 0) external(t1, n, &fext[3 * n]);
-    // Newton with a lagged tangent; if it diverges (with plastic unloading, a stale bubble
-    // stiffness can over-correct the bubbles) or stalls, the step starts again from the
-    // predictor with the tangent rebuilt at every iterate.
-    bool converged = false, refresh = false, full_newton = false;
-    for (int attempt = 0; attempt < 2 && !converged; ++attempt) {
-      if (attempt == 1) {
-        full_newton = refresh = true;
-        predict(false);
-        ++tr.restarts;
-      }
-      double dmax_prev = 0;
-      for (int it = 0; it < 60; ++it) {
-        for (std::size_t i = 0; i < 3 * nn; ++i) {
-          a1[i] = ca * (u1[i] - u[i] - dt * v[i]) - a[i];
-          v1[i] = v[i] + 0.5 * dt * (a[i] + a1[i]);
-        }
-        for (std::size_t i = 0; i < al.size(); ++i) ald1[i] = cv * (al1[i] - al[i]) - ald[i];
-        if (!internal(it == 0)) break;
-        // Contact set at this iterate.
-        bool changed = false;
-        for (std::size_t n = 0; n < nn && it < 8; ++n) {  // then the contact set stays fixed
-          if (dof[n] < 0) continue;
-          for (std::size_t p = 0; p < planes.size(); ++p) {
-            double gap = 0;
-            for (int d = 0; d < 3; ++d)
-              gap += (X_[n][d] + u1[3 * n + d] - planes[p].p[d]) * planes[p].n[d];
-            const char act = gap < 0;
-            if (act != active[n * planes.size() + p])
-              active[n * planes.size() + p] = act, changed = true;
-          }
-        }
-        if (refresh && !tangent()) break;
-        if ((changed || refresh) && !factor()) break;
-        refresh = false;
-        // Residual of the free dofs (stiffness damping is a stress, in fint); inertia and mass
-        // damping: M (a1 + alpha v1).
-        for (std::size_t n = 0; n < nn; ++n)
-          if (dof[n] >= 0)
-            for (int d = 0; d < 3; ++d)
-              wa[dof[n] + d] = a1[3 * n + d] + ph.rayleigh_alpha * v1[3 * n + d];
-        if (consistent && Mc_nodes.ok())
-          Mc_nodes.apply(wa, Mwa);
-        else if (consistent)
-          Mwa.noalias() = Mc * wa;
-        else
-          Mwa = M.cwiseProduct(wa);
-        for (std::size_t n = 0; n < nn; ++n) {
-          if (dof[n] < 0) continue;
-          const double* f = &fext[3 * n];
-          const int i0 = dof[n];
-          const double m = mass_[n] * ph.density;
-          const double* vn = &v1[3 * n];
-          const double speed =
-              quadratic_drag ? std::sqrt(vn[0] * vn[0] + vn[1] * vn[1] + vn[2] * vn[2]) : 0.0;
-          // Dry friction acts against the velocity at the start of the step (explicit in its
-          // direction, capped so it can at most stop the node): stable at any dt.
-          const double* v0 = &v[3 * n];
-          const double speed0 =
-              dry_friction ? std::sqrt(v0[0] * v0[0] + v0[1] * v0[1] + v0[2] * v0[2]) : 0.0;
-          for (int d = 0; d < 3; ++d) {
-            double r = Mwa[i0 + d] + Cd[i0 + d] * vn[d] + fint[3 * n + d] - f[d] +
-                       Ks[i0 + d] * u1[3 * n + d];
-            if (ph.drag_quadratic != 0) r += ph.drag_quadratic * area_[n] * speed * vn[d];
-            if (ph.coulomb_accel != 0 && speed0 > 0)  // lagged direction, cannot reverse motion
-              r += std::min(m * ph.coulomb_accel, m * speed0 / dt) * v0[d] / speed0;
-            R[i0 + d] = r;
-          }
-          for (std::size_t p = 0; p < planes.size(); ++p) {
-            if (!active[n * planes.size() + p]) continue;
-            const Plane& pl = planes[p];
-            double gap = 0;
-            for (int d = 0; d < 3; ++d) gap += (X_[n][d] + u1[3 * n + d] - pl.p[d]) * pl.n[d];
-            const double fn = -k_pen * gap;  // >= 0, along n
-            double vt[3], vt2 = 0, v0n = 0;
-            for (int d = 0; d < 3; ++d) v0n += v0[d] * pl.n[d];
-            for (int d = 0; d < 3; ++d) vt[d] = v0[d] - v0n * pl.n[d], vt2 += vt[d] * vt[d];
-            const double vt_norm = std::sqrt(vt2);
-            const double ft = vt_norm > 0 ? std::min(pl.mu * fn, m * vt_norm / dt) / vt_norm : 0.0;
-            for (int d = 0; d < 3; ++d) R[i0 + d] -= fn * pl.n[d] - ft * vt[d];
-          }
-        }
-        // The clamp faces' foundation: k u + c v, integrated over each face.
-        if (clamp_faces)
-          for (const auto& f : clamp_faces_)
-            for (int q = 0; q < 4; ++q) {
-              const int i0 = dof[static_cast<std::size_t>(f[q])];
-              for (int r = 0; r < 4; ++r) {
-                const std::size_t m3 = 3 * static_cast<std::size_t>(f[r]);
-                const double w = foundation(q, r);
-                for (int d = 0; d < 3; ++d)
-                  R[i0 + d] += w * (ph.clamp_stiffness * u1[m3 + static_cast<std::size_t>(d)] +
-                                    ph.clamp_damping * v1[m3 + static_cast<std::size_t>(d)]);
-              }
-            }
-        // Condensed residual: the bubbles' residual r_a carried to the nodes, R - L^T r_a.
-        auto element_du = [&](std::size_t vx, Eigen::Matrix<double, 24, 1>& due) {
-          for (int l = 0; l < 8; ++l) {
-            const int dl = dof[static_cast<std::size_t>(vox_node_[vx][l])];
-            for (int d = 0; d < 3; ++d) due[3 * l + d] = dl >= 0 ? du[dl + d] : 0.0;
-          }
-        };
-        for (std::size_t vx = 0; vx < al.size() / 9; ++vx) {
-          double fr[24];
-          bubble_lt_times(condLt[vx].data(), &ral[9 * vx], fr);
-          for (int l = 0; l < 8; ++l) {
-            const int dl = dof[static_cast<std::size_t>(vox_node_[vx][l])];
-            if (dl >= 0)
-              for (int d = 0; d < 3; ++d) R[dl + d] -= fr[3 * l + d];
-          }
-        }
-        {
-          PhaseTimer timer(tr.time_solve);
-          solver.solve(R, du);  // the correction is -du
-        }
-        double dmax = 0;
-        for (std::size_t n = 0; n < nn; ++n)
-          if (dof[n] >= 0)
-            for (int d = 0; d < 3; ++d) {
-              u1[3 * n + d] -= du[dof[n] + d];
-              dmax = std::max(dmax, std::abs(du[dof[n] + d]));
-            }
-        // Bubbles: delta alpha = -Kaa^-1 r_a - L delta u (delta u = -du); Kaa carries the step
-        // matrix's factor for stiffness damping like the rest of the tangent.
-        const double kscale = 1.0 / (1.0 + cv * ph.rayleigh_beta);
-        for (std::size_t vx = 0; vx < al.size() / 9; ++vx) {
-          Eigen::Matrix<double, 24, 1> due;
-          element_du(vx, due);
-          double Ld[9], Kr[9];
-          bubble_l_times(condL[vx].data(), due.data(), 1.0, Ld);
-          bubble_kinv_times(condKinv[vx].data(), &ral[9 * vx], kscale, Kr);
-          for (int i = 0; i < 9; ++i) {
-            const double da = Ld[i] - Kr[i];
-            al1[9 * vx + static_cast<std::size_t>(i)] += da;
-            dmax = std::max(dmax, std::abs(da));
-          }
-        }
-        ++tr.newton_iterations;
-        if (!std::isfinite(dmax)) break;
-        if (dmax < tol_du) {
-          converged = true;
-          break;
-        }
-        if (attempt == 0 && it >= 1 && dmax > 2 * dmax_prev && dmax > 100 * tol_du) break;
-        // A stale tangent shows as slow contraction: rebuild it at the current state. (A rule
-        // weighing the iterations left at the observed rate against a rebuild's measured cost
-        // was tried: it saved 20 % on plastic runs but cost 30 % on elastic ones.)
-        if ((full_newton && dmax > 0.1 * dmax_prev) ||
-            (it > 1 && dmax > ph.refresh_contraction * dmax_prev))
-          refresh = true;
-        dmax_prev = dmax;
+      Eigen::Map<Eigen::Matrix<double, 9, 1>> a1v(&al1[9 * vx]);
+      a1v = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(&al[9 * vx]);
+      if (bubbles_follow) {
+        double Ld[9];
+        bubble_l_times(condL[vx].data(), due.data(), 1.0, Ld);
+        for (int i = 0; i < 9; ++i) a1v[i] -= Ld[i];
       }
     }
-    if (!converged) {
-      const auto [jmin, at] = most_compressed();
-      tr.ok = false;
-      tr.failure = fmt::format(
-          "step {} (t = {:.4g} s) did not converge (smallest volume ratio {:.3g} of the last "
-          "converged step, in the voxel at ({:.4g}, {:.4g}, {:.4g}) m)",
-          s, t1, jmin, at[0], at[1], at[2]);
-      return tr;
-    }
+  }
+
+  //! a1, v1 and the bubbles' rates of the trial state u1, al1 (the trapezoidal rule).
+  void trial_rates() {
     for (std::size_t i = 0; i < 3 * nn; ++i) {
       a1[i] = ca * (u1[i] - u[i] - dt * v[i]) - a[i];
       v1[i] = v[i] + 0.5 * dt * (a[i] + a1[i]);
     }
     for (std::size_t i = 0; i < al.size(); ++i) ald1[i] = cv * (al1[i] - al[i]) - ald[i];
+  }
+
+  //! The contact set at this iterate; whether it changed.
+  bool update_contacts() {
+    bool changed = false;
+    for (std::size_t n = 0; n < nn; ++n) {
+      if (dof[n] < 0) continue;
+      for (std::size_t p = 0; p < planes.size(); ++p) {
+        double gap = 0;
+        for (int d = 0; d < 3; ++d)
+          gap += (md_.X_[n][d] + u1[3 * n + d] - planes[p].p[d]) * planes[p].n[d];
+        const char act = gap < 0;
+        if (act != active[n * planes.size() + p])
+          active[n * planes.size() + p] = act, changed = true;
+      }
+    }
+    return changed;
+  }
+
+  //! Residual R of the free dofs at the trial state (stiffness damping is a stress, in fint);
+  //! inertia and mass damping: M (a1 + alpha v1).
+  void residual() {
+    for (std::size_t n = 0; n < nn; ++n)
+      if (dof[n] >= 0)
+        for (int d = 0; d < 3; ++d)
+          wa[dof[n] + d] = a1[3 * n + d] + tm.rayleigh_alpha * v1[3 * n + d];
+    if (consistent && Mc_nodes.ok())
+      Mc_nodes.apply(wa, Mwa);
+    else if (consistent)
+      Mwa.noalias() = Mc * wa;
+    else
+      Mwa = M.cwiseProduct(wa);
+    for (std::size_t n = 0; n < nn; ++n) {
+      if (dof[n] < 0) continue;
+      const double* f = &fext[3 * n];
+      const int i0 = dof[n];
+      const double m = md_.mass_[n] * ph.density;
+      const double* vn = &v1[3 * n];
+      const double* v0 = &v[3 * n];
+      for (int d = 0; d < 3; ++d)
+        R[i0 + d] =
+            Mwa[i0 + d] + Cd[i0 + d] * vn[d] + fint[3 * n + d] - f[d] + Ks[i0 + d] * u1[3 * n + d];
+      for (const auto& nf : tm.node_forces) nf->add_residual({m, md_.area_[n]}, vn, v0, dt, &R[i0]);
+      for (std::size_t p = 0; p < planes.size(); ++p)
+        if (active[n * planes.size() + p]) contact_residual(n, planes[p], m, v0, i0);
+    }
+    if (clamp_faces) clamp_residual();
+    bubble_residual();
+  }
+
+  //! A penalty contact's normal force and its Coulomb friction against the velocity at the
+  //! step's start (explicit in direction, capped so it can at most stop the node).
+  void contact_residual(std::size_t n, const Plane& pl, double m, const double* v0, int i0) {
+    double gap = 0;
+    for (int d = 0; d < 3; ++d) gap += (md_.X_[n][d] + u1[3 * n + d] - pl.p[d]) * pl.n[d];
+    const double fn = -k_pen * gap;  // >= 0, along n
+    double vt[3], vt2 = 0, v0n = 0;
+    for (int d = 0; d < 3; ++d) v0n += v0[d] * pl.n[d];
+    for (int d = 0; d < 3; ++d) vt[d] = v0[d] - v0n * pl.n[d], vt2 += vt[d] * vt[d];
+    const double vt_norm = std::sqrt(vt2);
+    const double ft = vt_norm > 0 ? std::min(pl.mu * fn, m * vt_norm / dt) / vt_norm : 0.0;
+    for (int d = 0; d < 3; ++d) R[i0 + d] -= fn * pl.n[d] - ft * vt[d];
+  }
+
+  //! The clamp faces' foundation: k u + c v, integrated over each face.
+  void clamp_residual() {
+    for (const auto& f : md_.clamp_faces_)
+      for (int q = 0; q < 4; ++q) {
+        const int i0 = dof[static_cast<std::size_t>(f[q])];
+        for (int r = 0; r < 4; ++r) {
+          const std::size_t m3 = 3 * static_cast<std::size_t>(f[r]);
+          const double w = foundation(q, r);
+          for (int d = 0; d < 3; ++d)
+            R[i0 + d] += w * (tm.clamp_stiffness * u1[m3 + static_cast<std::size_t>(d)] +
+                              tm.clamp_damping * v1[m3 + static_cast<std::size_t>(d)]);
+        }
+      }
+  }
+
+  //! Condensed residual: the bubbles' residual r_a carried to the nodes, R - L^T r_a.
+  void bubble_residual() {
+    for (std::size_t vx = 0; vx < al.size() / 9; ++vx) {
+      double fr[24];
+      bubble_lt_times(condLt[vx].data(), &ral[9 * vx], fr);
+      for (int l = 0; l < 8; ++l) {
+        const int dl = dof[static_cast<std::size_t>(md_.vox_node_[vx][l])];
+        if (dl >= 0)
+          for (int d = 0; d < 3; ++d) R[dl + d] -= fr[3 * l + d];
+      }
+    }
+  }
+
+  //! Solves for the correction and applies it to the nodes and the bubbles; the largest
+  //! correction (m).
+  double correct() {
+    {
+      PhaseTimer timer(tr.time_solve);
+      solver.solve(R, du);  // the correction is -du
+    }
+    double dmax = 0;
+    for (std::size_t n = 0; n < nn; ++n)
+      if (dof[n] >= 0)
+        for (int d = 0; d < 3; ++d) {
+          u1[3 * n + d] -= du[dof[n] + d];
+          dmax = std::max(dmax, std::abs(du[dof[n] + d]));
+        }
+    // Bubbles: delta alpha = -Kaa^-1 r_a - L delta u (delta u = -du); Kaa carries the step
+    // matrix's factor for stiffness damping like the rest of the tangent.
+    const double kscale = 1.0 / (1.0 + cv * tm.rayleigh_beta);
+    for (std::size_t vx = 0; vx < al.size() / 9; ++vx) {
+      Vec24 due;
+      for (int l = 0; l < 8; ++l) {
+        const int dl = dof[static_cast<std::size_t>(md_.vox_node_[vx][l])];
+        for (int d = 0; d < 3; ++d) due[3 * l + d] = dl >= 0 ? du[dl + d] : 0.0;
+      }
+      double Ld[9], Kr[9];
+      bubble_l_times(condL[vx].data(), due.data(), 1.0, Ld);
+      bubble_kinv_times(condKinv[vx].data(), &ral[9 * vx], kscale, Kr);
+      for (int i = 0; i < 9; ++i) {
+        const double da = Ld[i] - Kr[i];
+        al1[9 * vx + static_cast<std::size_t>(i)] += da;
+        dmax = std::max(dmax, std::abs(da));
+      }
+    }
+    return dmax;
+  }
+
+  //! Newton with a lagged tangent from the predictor (attempt 0); if it diverges (with plastic
+  //! unloading, a stale bubble stiffness can over-correct the bubbles) or stalls, the step
+  //! starts again from the predictor with the tangent rebuilt at every iterate (attempt 1).
+  //! Whether it converged.
+  bool newton(int attempt) {
+    const bool full_newton = attempt == 1;
+    bool refresh = full_newton;
+    double dmax_prev = 0;
+    for (int it = 0; it < 60; ++it) {
+      trial_rates();
+      if (!internal(it == 0)) return false;
+      const bool changed = it < 8 && update_contacts();  // then the contact set stays fixed
+      if (refresh && !tangent()) return false;
+      if ((changed || refresh) && !factor()) return false;
+      refresh = false;
+      residual();
+      const double dmax = correct();
+      ++tr.newton_iterations;
+      if (!std::isfinite(dmax)) return false;
+      if (dmax < tol_du) return true;
+      if (attempt == 0 && it >= 1 && dmax > 2 * dmax_prev && dmax > 100 * tol_du) return false;
+      // A stale tangent shows as slow contraction: rebuild it at the current state.
+      if ((full_newton && dmax > 0.1 * dmax_prev) ||
+          (it > 1 && dmax > ph.refresh_contraction * dmax_prev))
+        refresh = true;
+      dmax_prev = dmax;
+    }
+    return false;
+  }
+
+  //! Step s: to t = s dt, then the state moves on; false (tr says why) if it did not converge.
+  bool step(long s) {
+    const double t1 = dt * static_cast<double>(s);
+    predict(true);
+    for (std::size_t n = 0; n < nn; ++n)  // the step's applied loads
+      if (dof[n] >= 0) external(t1, n, &fext[3 * n]);
+    bool converged = false;
+    for (int attempt = 0; attempt < 2 && !converged; ++attempt) {
+      if (attempt == 1) {
+        predict(false);
+        ++tr.restarts;
+      }
+      converged = newton(attempt);
+    }
+    if (!converged) {
+      const auto [jmin, at] = most_compressed();
+      return fail(fmt::format(
+          "step {} (t = {:.4g} s) did not converge (smallest volume ratio {:.3g} of the last "
+          "converged step, in the voxel at ({:.4g}, {:.4g}, {:.4g}) m)",
+          s, t1, jmin, at[0], at[1], at[2]));
+    }
+    trial_rates();
     al.swap(al1);
     ald.swap(ald1);
     a_prev = a;
@@ -1301,44 +1403,48 @@ Trace VoxelModel::run_law(const Physics& ph, const std::vector<ChannelRequest>& 
     }
     record(s);
     ++tr.steps;
+    return true;
   }
 
-  // Samples: cubic Hermite between steps for positions, linear for accelerations.
-  tr.channel.resize(req.size());
-  for (std::size_t c = 0; c < req.size(); ++c) {
-    const ChannelRequest& r = req[c];
-    auto& out = tr.channel[c];
-    out.resize(3 * r.t.size());
-    for (std::size_t k = 0; k < r.t.size(); ++k) {
-      const double tt = std::max(0.0, r.t[k]);
-      long s0 = std::min(static_cast<long>(std::floor(tt / dt)), std::max(0L, nsteps - 1));
-      if (nsteps == 0) s0 = 0;
-      const long s1 = std::min(s0 + 1, nsteps);
-      const double th =
-          s1 > s0 ? std::clamp((tt - dt * static_cast<double>(s0)) / dt, 0.0, 1.0) : 0.0;
-      const double h00 = 2 * th * th * th - 3 * th * th + 1, h10 = th * th * th - 2 * th * th + th,
-                   h01 = -2 * th * th * th + 3 * th * th, h11 = th * th * th - th * th;
-      for (int d = 0; d < 3; ++d) {
-        double val = 0;
-        for (int l = 0; l < 8; ++l) {
-          const std::size_t n = static_cast<std::size_t>(r.at.node[l]);
-          const std::size_t slot = static_cast<std::size_t>(sample_slot[n]);
-          const double* A0s = &hist_u[9 * ns * static_cast<std::size_t>(s0) + 9 * slot];
-          const double* A1s = &hist_u[9 * ns * static_cast<std::size_t>(s1) + 9 * slot];
-          double x;
-          if (r.acceleration)
-            x = (1 - th) * A0s[6 + d] + th * A1s[6 + d];
-          else
-            x = X_[n][d] + h00 * A0s[d] + h10 * dt * A0s[3 + d] + h01 * A1s[d] +
-                h11 * dt * A1s[3 + d];
-          val += r.at.w[l] * x;
-        }
-        out[3 * k + d] = val;
-      }
+  //! Samples: cubic Hermite between steps for positions, linear for accelerations.
+  void sample(const std::vector<ChannelRequest>& req) {
+    tr.channel.resize(req.size());
+    for (std::size_t c = 0; c < req.size(); ++c) {
+      const ChannelRequest& r = req[c];
+      auto& out = tr.channel[c];
+      out.resize(3 * r.t.size());
+      for (std::size_t k = 0; k < r.t.size(); ++k) sample_at(r, r.t[k], &out[3 * k]);
     }
   }
-  return tr;
-}
+
+  void sample_at(const ChannelRequest& r, double t, double* out) const {
+    const double tt = std::max(0.0, t);
+    long s0 = std::min(static_cast<long>(std::floor(tt / dt)), std::max(0L, nsteps - 1));
+    if (nsteps == 0) s0 = 0;
+    const long s1 = std::min(s0 + 1, nsteps);
+    const double th =
+        s1 > s0 ? std::clamp((tt - dt * static_cast<double>(s0)) / dt, 0.0, 1.0) : 0.0;
+    const double h00 = 2 * th * th * th - 3 * th * th + 1, h10 = th * th * th - 2 * th * th + th,
+                 h01 = -2 * th * th * th + 3 * th * th, h11 = th * th * th - th * th;
+    for (int d = 0; d < 3; ++d) {
+      double val = 0;
+      for (int l = 0; l < 8; ++l) {
+        const std::size_t n = static_cast<std::size_t>(r.at.node[l]);
+        const std::size_t slot = static_cast<std::size_t>(sample_slot[n]);
+        const double* A0s = &hist_u[9 * ns * static_cast<std::size_t>(s0) + 9 * slot];
+        const double* A1s = &hist_u[9 * ns * static_cast<std::size_t>(s1) + 9 * slot];
+        double x;
+        if (r.acceleration)
+          x = (1 - th) * A0s[6 + d] + th * A1s[6 + d];
+        else
+          x = md_.X_[n][d] + h00 * A0s[d] + h10 * dt * A0s[3 + d] + h01 * A1s[d] +
+              h11 * dt * A1s[3 + d];
+        val += r.at.w[l] * x;
+      }
+      out[d] = val;
+    }
+  }
+};
 
 namespace {
 
@@ -1350,17 +1456,18 @@ struct RegistryLaw {
 
 }  // namespace
 
-std::vector<double> VoxelModel::stiffness_factors(const Physics& ph) const {
+std::vector<double> VoxelModel::stiffness_factors(const ModelTerms& tm) const {
   std::vector<double> f(vox_node_.size(), 1.0);
-  if (ph.has_region)
-    for (std::size_t v = 0; v < f.size(); ++v)
-      if (ph.region.contains(voxel_center(v))) f[v] = ph.region_factor;
+  if (!tm.stiffness_boxes.empty())
+    for (std::size_t v = 0; v < f.size(); ++v) f[v] = tm.stiffness_factor(voxel_center(v));
   return f;
 }
 
 double VoxelModel::rest_frequency(const Physics& ph, const Vec3d& direction) const {
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  if (std::isfinite(ph.clamp_stiffness) || ph.ground || !cfg_.colliders.empty()) return nan;
+  const ModelTerms tm = model_terms(ph);
+  if (std::isfinite(tm.clamp_stiffness) || !tm.planes.empty() || !cfg_.colliders.empty())
+    return nan;
   int ndof = 0;
   const std::vector<int> dof = free_dofs(fixed_, false, ndof);
   if (ndof == 0) return nan;
@@ -1370,7 +1477,7 @@ double VoxelModel::rest_frequency(const Physics& ph, const Vec3d& direction) con
                     E / (2 * (1 + nu)), c0))
     return nan;
   std::vector<Eigen::Triplet<double>> trip;
-  const SpMat K = assemble_stiffness(vox_node_, dof, ndof, stiffness_factors(ph), c0.Kc, trip);
+  const SpMat K = assemble_stiffness(vox_node_, dof, ndof, stiffness_factors(tm), c0.Kc, trip);
   const SpMat M = assemble_mass(vox_node_, dof, ndof, mass_, ph.density,
                                 std::clamp(ph.consistent_mass_fraction, 0.0, 1.0), h_);
   BlockLDLT solver;
@@ -1400,16 +1507,25 @@ double VoxelModel::rest_frequency(const Physics& ph, const Vec3d& direction) con
 Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req) const {
   const double E = ph.youngs_modulus, nu = ph.poisson_ratio;
   RegistryLaw generic{materials::find_material(ph.law).build(E, nu)};  // validates E, nu
+  const std::string law = materials::canonical_law(ph.law, materials::Solver::Voxel);
+  const ModelTerms tm = model_terms(ph);
   // The common laws get their own instantiation of the element loops (inlined stress).
-  if (ph.law == materials::StVK::name)
-    return run_law(ph, req, materials::StVK::from_young_poisson(E, nu));
-  if (ph.law == materials::NeoHookean::name)
-    return run_law(ph, req, materials::NeoHookean::from_young_poisson(E, nu));
-  if (ph.law == materials::FixedCorotated::name)
-    return run_law(ph, req, materials::FixedCorotated::from_young_poisson(E, nu));
-  if (ph.law == materials::LinearElastic::name)
-    return run_law(ph, req, materials::LinearElastic::from_young_poisson(E, nu));
-  return run_law(ph, req, generic);
+  if (law == materials::StVK::name)
+    return VoxelRun<materials::StVK>(*this, ph, tm, materials::StVK::from_young_poisson(E, nu))
+        .run(req);
+  if (law == materials::NeoHookean::name)
+    return VoxelRun<materials::NeoHookean>(*this, ph, tm,
+                                           materials::NeoHookean::from_young_poisson(E, nu))
+        .run(req);
+  if (law == materials::FixedCorotated::name)
+    return VoxelRun<materials::FixedCorotated>(*this, ph, tm,
+                                               materials::FixedCorotated::from_young_poisson(E, nu))
+        .run(req);
+  if (law == materials::LinearElastic::name)
+    return VoxelRun<materials::LinearElastic>(*this, ph, tm,
+                                              materials::LinearElastic::from_young_poisson(E, nu))
+        .run(req);
+  return VoxelRun<RegistryLaw>(*this, ph, tm, generic).run(req);
 }
 
 }  // namespace gen4d::diagnose

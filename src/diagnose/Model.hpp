@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "core/Config.hpp"
+#include "diagnose/Terms.hpp"
 
 namespace gen4d::diagnose {
 
@@ -24,7 +25,15 @@ namespace gen4d::diagnose {
 //! which removes the trilinear element's shear locking in bending.
 enum class Element { trilinear, incompatible };
 
-//! The physics of one forward run: the deck's values plus every effect's parameters.
+class Effect;
+
+//! One effect in a forward run: the values of its terms (Effect::add_terms reads them).
+struct AppliedEffect {
+  const Effect* effect = nullptr;
+  std::vector<double> terms;
+};
+
+//! The physics of one forward run: the deck's values plus the applied effects.
 struct Physics {
   Element element = Element::incompatible;
   //! Mass matrix: this fraction consistent (trilinear shape functions), the rest lumped. The
@@ -36,26 +45,9 @@ struct Physics {
   double youngs_modulus = 0, poisson_ratio = 0, density = 0;
   Vec3d gravity{0, 0, 0};
   double dt = 0;
-  // damping: alpha M v, and beta times the elastic law's stress of the strain rate (beta K v
-  // for small motions, objective under large rotations)
-  double rayleigh_alpha = 0, rayleigh_beta = 0;
-  // viscoelasticity: one Prony term; a fraction g of the stress relaxes with time tau
-  double prony_g = 0, prony_tau = 1;
-  // plasticity: von Mises, linear isotropic hardening (Hencky elasticity)
-  double yield_stress = std::numeric_limits<double>::infinity(), hardening = 0;
-  // heterogeneity: voxels whose centre lies in `region` have E * region_factor
-  bool has_region = false;
-  BoxRegion region;
-  double region_factor = 1;
-  // clamp_compliance: fixed nodes held by springs/dashpots per unit clamp area (Pa/m, Pa s/m)
-  double clamp_stiffness = std::numeric_limits<double>::infinity(), clamp_damping = 0;
-  // contact_friction: ground plane z = ground_height (normal +z), Coulomb coefficient
-  bool ground = false;
-  double ground_height = 0, ground_friction = 0;
-  // air_drag: force per exposed area -(linear v + quadratic |v| v)
-  double drag_linear = 0, drag_quadratic = 0;
-  // coulomb_damping: dry friction, force -m a_c v/|v| per node
-  double coulomb_accel = 0;
+  //! The effects applied on top of the deck's physics (Effect::apply), one entry per effect,
+  //! in library order; an effect at its null values has none.
+  std::vector<AppliedEffect> effects;
   //! Multiplies the deck's [[force]] loads (to design a separating experiment).
   double load_scale = 1;
   //! A step's Newton iteration stops at a correction below this many voxel sizes (every node
@@ -185,11 +177,11 @@ class VoxelModel final : public ForwardModel {
   void set_vector_kernels(bool on) { vector_kernels_ = on; }
 
  private:
-  //! Each voxel's stiffness factor (the region's where its centre lies in it, else 1).
-  std::vector<double> stiffness_factors(const Physics& phys) const;
-  //! run() with the hyperelastic law as a compile-time type (pk1(Mat3) -> Mat3).
+  //! Each voxel's stiffness factor (at its centre).
+  std::vector<double> stiffness_factors(const ModelTerms& terms) const;
+  //! One run with the hyperelastic law as a compile-time type (Model.cpp).
   template <class Law>
-  Trace run_law(const Physics& phys, const std::vector<ChannelRequest>& req, const Law& law) const;
+  friend class VoxelRun;
 
   Config cfg_;
   bool vector_kernels_ = true;

@@ -11,6 +11,7 @@
 #include <unordered_map>
 
 #include "core/Error.hpp"
+#include "diagnose/Effects.hpp"
 #include "geometry/Shape.hpp"
 #include "materials/Svd3.hpp"
 #include "mpm/MpmSimulation.hpp"
@@ -90,6 +91,218 @@ Eigen::Matrix3d rotation_of(const double* F) {
   materials::Mat3 R;
   if (!materials::polar_rotation_newton(M, R)) R = materials::polar_rotation(M);
   return Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(R.a);
+}
+
+//! The MPM material of a physics: the deck's elastic law (von Mises over Hencky elasticity
+//! where plasticity applies), or the deck's own material, at the physics' E, nu and density.
+std::shared_ptr<const mpm::Material> run_material(const Config& cfg, bool elastic,
+                                                  const Physics& ph, const ModelTerms& tm) {
+  mpm::MaterialParams mp;
+  mp.source = cfg.source;
+  if (elastic) {
+    const char* m = mpm_model_of_law(ph.law);
+    if (!m) throw InputError("law '" + ph.law + "' has no MPM model");
+    mp.model = m;
+    if (std::isfinite(tm.yield_stress)) {
+      mp.model = "von_mises";  // Hencky elasticity with J2 return mapping
+      mp.values["yield_stress"] = tm.yield_stress;
+      mp.values["hardening"] = tm.hardening;
+    }
+  } else {
+    mp.model = cfg.material.model;
+    mp.values = cfg.material.params;
+  }
+  mp.values["youngs_modulus"] = ph.youngs_modulus;
+  mp.values["poisson_ratio"] = ph.poisson_ratio;
+  mp.values["density"] = ph.density;
+  return mpm::make_material(mp);
+}
+
+//! The effects that act on the particles' stresses (see the header): the region's stress
+//! factor, the Prony term's relaxing stress and the stiffness damping's viscous stress, as the
+//! solver's stress hook. Its per-id arrays are filled once the particles are seeded.
+class StressEffects {
+ public:
+  StressEffects(const Physics& ph, const ModelTerms& tm)
+      : tm_(tm),
+        region_(std::any_of(tm.stiffness_boxes.begin(), tm.stiffness_boxes.end(),
+                            [](const ModelTerms::StiffnessBox& b) { return b.factor != 1.0; })),
+        visco_(tm.prony_g > 0),
+        kv_(tm.rayleigh_beta != 0),
+        mu0_(ph.youngs_modulus / (2 * (1 + ph.poisson_ratio))),
+        lambda0_(ph.youngs_modulus * ph.poisson_ratio /
+                 ((1 + ph.poisson_ratio) * (1 - 2 * ph.poisson_ratio))) {}
+
+  //! Sets the hook in opt where any of the effects applies (this must outlive the solver).
+  void install(mpm::SolverOptions& opt) {
+    if (region_ || visco_ || kv_)
+      opt.stress_hook = [this](const mpm::Particles& Q, double* tau, double dt) {
+        apply(Q, tau, dt);
+      };
+  }
+
+  //! The per-id arrays of the seeded particles P (ids below nid).
+  void seeded(const mpm::Particles& P, std::int64_t nid) {
+    if (region_) {
+      factor_.assign(static_cast<std::size_t>(nid), 1.0);
+      for (std::size_t i = 0; i < P.size(); ++i)
+        factor_[static_cast<std::size_t>(P.id[i])] =
+            tm_.stiffness_factor({P.x[3 * i], P.x[3 * i + 1], P.x[3 * i + 2]});
+    }
+    if (visco_) history_.assign(9 * static_cast<std::size_t>(nid), 0.0);
+  }
+
+ private:
+  void apply(const mpm::Particles& Q, double* tau, double dt) {
+    const double rv = visco_ ? dt / tm_.prony_tau : 0.0;
+    for (std::size_t i = 0; i < Q.size(); ++i) {
+      const auto id = static_cast<std::size_t>(Q.id[i]);
+      double* s = tau + 9 * i;
+      const double f = region_ ? factor_[id] : 1.0;
+      if (f != 1.0)
+        for (int k = 0; k < 9; ++k) s[k] *= f;
+      if (visco_) {
+        // q' = (g P - q) / tau, backward Euler, in the rotated frame R^T tau R so that a
+        // rigid rotation carries the relaxing stress along.
+        const Eigen::Matrix3d R = rotation_of(&Q.F[9 * i]);
+        Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> S(s);
+        Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> q(&history_[9 * id]);
+        q = (q + rv * tm_.prony_g * (R.transpose() * S * R)) / (1.0 + rv);
+        S -= R * q * R.transpose();
+      }
+      if (kv_) {
+        const double* C = &Q.C[9 * i];
+        const double tr = C[0] + C[4] + C[8];
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            s[3 * a + b] += tm_.rayleigh_beta * f *
+                            (mu0_ * (C[3 * a + b] + C[3 * b + a]) + (a == b ? lambda0_ * tr : 0.0));
+      }
+    }
+  }
+
+  const ModelTerms& tm_;
+  const bool region_, visco_, kv_;
+  const double mu0_, lambda0_;
+  std::vector<double> factor_;   //!< stress factor by id (region)
+  std::vector<double> history_;  //!< Prony stress by id, 9 each, in the particle's rotated frame
+};
+
+//! The markers of a run's requests: each the particles within the kernel of its reference
+//! point, with their weights; their positions, and the samples between two of them.
+class Markers {
+ public:
+  Markers(const std::vector<ChannelRequest>& req, const mpm::Particles& P, double dx)
+      : req_(req), P_(P), members_(req.size()), next_(req.size(), 0) {
+    const double inv_dx = 1.0 / dx;
+    for (std::size_t c = 0; c < req.size(); ++c) {
+      const Vec3d& X = req[c].at.X;
+      double wsum = 0;
+      for (std::size_t i = 0; i < P.size(); ++i) {
+        const double w = bspline((P.x[3 * i] - X[0]) * inv_dx) *
+                         bspline((P.x[3 * i + 1] - X[1]) * inv_dx) *
+                         bspline((P.x[3 * i + 2] - X[2]) * inv_dx);
+        if (w <= 0) continue;
+        members_[c].push_back({P.id[i], w, {P.x[3 * i], P.x[3 * i + 1], P.x[3 * i + 2]}});
+        wsum += w;
+      }
+      if (members_[c].empty())
+        throw InputError(fmt::format(
+            "no MPM particle within 1.5 cells of the marker at ({}, {}, {})", X[0], X[1], X[2]));
+      for (auto& m : members_[c]) m.w /= wsum;
+    }
+    reindex();
+  }
+
+  //! After particles were removed: where each id now sits.
+  void reindex() {
+    index_.clear();
+    for (std::size_t i = 0; i < P_.size(); ++i) index_[P_.id[i]] = i;
+  }
+  bool stale() const { return P_.size() != index_.size(); }
+
+  //! Whether a sample falls at or before t1.
+  bool due(double t1) const {
+    bool any = false;
+    for (std::size_t c = 0; c < req_.size(); ++c)
+      any = any || (next_[c] < req_[c].t.size() && req_[c].t[next_[c]] <= t1);
+    return any;
+  }
+
+  //! Marker positions now; a marker whose particles all left (removed) keeps NaN.
+  void positions(std::vector<double>& out) const {
+    out.assign(3 * req_.size(), std::nan(""));
+    for (std::size_t c = 0; c < req_.size(); ++c) {
+      double u[3] = {0, 0, 0}, wsum = 0;
+      for (const auto& m : members_[c]) {
+        auto it = index_.find(m.id);
+        if (it == index_.end()) continue;
+        const double* x = &P_.x[3 * it->second];
+        for (int a = 0; a < 3; ++a) u[a] += m.w * (x[a] - m.x0[a]);
+        wsum += m.w;
+      }
+      if (wsum > 0)
+        for (int a = 0; a < 3; ++a) out[3 * c + a] = req_[c].at.X[a] + u[a] / wsum;
+    }
+  }
+
+  //! The samples in (t0, t1] (all that are left, when last), linear between the positions
+  //! prev at t0 and cur at t1, into tr.
+  void sample(double t0, double t1, bool last, const std::vector<double>& prev,
+              const std::vector<double>& cur, Trace& tr) {
+    for (std::size_t c = 0; c < req_.size(); ++c)
+      while (next_[c] < req_[c].t.size() && (req_[c].t[next_[c]] <= t1 || last)) {
+        const double ts = req_[c].t[next_[c]];
+        const double f = t1 > t0 ? std::clamp((ts - t0) / (t1 - t0), 0.0, 1.0) : 1.0;
+        for (int a = 0; a < 3; ++a)
+          tr.channel[c][3 * next_[c] + a] = (1 - f) * prev[3 * c + a] + f * cur[3 * c + a];
+        ++next_[c];
+      }
+  }
+
+ private:
+  struct Member {
+    std::int64_t id;
+    double w;
+    std::array<double, 3> x0;
+  };
+  const std::vector<ChannelRequest>& req_;
+  const mpm::Particles& P_;
+  std::vector<std::vector<Member>> members_;
+  std::unordered_map<std::int64_t, std::size_t> index_;
+  std::vector<std::size_t> next_;  //!< next sample of each channel
+};
+
+//! The largest von Mises stress and particle speed of the particles P into tr (tau: scratch).
+void track_peaks(const mpm::Material& material, const mpm::Particles& P, std::vector<double>& tau,
+                 Trace& tr) {
+  const std::size_t n = P.size();
+  tau.resize(9 * n);
+  material.stress(n, P.F.data(), P.state.data(), tau.data());
+  for (std::size_t i = 0; i < n; ++i) {
+    const double* s = &tau[9 * i];
+    const double m = (s[0] + s[4] + s[8]) / 3;
+    const double d0 = s[0] - m, d1 = s[4] - m, d2 = s[8] - m;
+    const double j2 = 0.5 * (d0 * d0 + d1 * d1 + d2 * d2) +
+                      0.25 * ((s[1] + s[3]) * (s[1] + s[3]) + (s[2] + s[6]) * (s[2] + s[6]) +
+                              (s[5] + s[7]) * (s[5] + s[7]));
+    tr.max_mises = std::max(tr.max_mises, std::sqrt(3 * j2));
+    const double* v = &P.v[3 * i];
+    tr.max_speed = std::max(tr.max_speed, std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]));
+  }
+}
+
+//! The effects' node forces (air drag, dry friction) on the free particles' velocities, in
+//! library order (NodeForce::apply_to_particle); area: exposed area by particle id.
+void apply_node_forces(const ModelTerms& tm, const std::vector<double>& area, double dt,
+                       mpm::Particles& P) {
+  for (std::size_t i = 0; i < P.size(); ++i) {
+    if (P.flag[i] != 0) continue;  // frozen or kinematic
+    double* v = &P.v[3 * i];
+    double speed = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    const ForceNode node{P.mass[i], area[static_cast<std::size_t>(P.id[i])]};
+    for (const auto& nf : tm.node_forces) nf->apply_to_particle(node, dt, v, speed);
+  }
 }
 
 }  // namespace
@@ -177,79 +390,22 @@ Trace MpmModel::run(const Physics& ph, const std::vector<ChannelRequest>& req) c
     tr.channel[&r - req.data()].assign(3 * r.t.size(), std::nan(""));
   }
   try {
-    // The material of this physics.
-    mpm::MaterialParams mp;
-    mp.source = cfg_.source;
-    if (elastic_) {
-      const char* m = mpm_model_of_law(ph.law);
-      if (!m) throw InputError("law '" + ph.law + "' has no MPM model");
-      mp.model = m;
-      if (std::isfinite(ph.yield_stress)) {
-        mp.model = "von_mises";  // Hencky elasticity with J2 return mapping
-        mp.values["yield_stress"] = ph.yield_stress;
-        mp.values["hardening"] = ph.hardening;
-      }
-    } else {
-      mp.model = cfg_.material.model;
-      mp.values = cfg_.material.params;
-    }
-    mp.values["youngs_modulus"] = ph.youngs_modulus;
-    mp.values["poisson_ratio"] = ph.poisson_ratio;
-    mp.values["density"] = ph.density;
-    std::shared_ptr<const mpm::Material> material = mpm::make_material(mp);
-
+    const ModelTerms tm = model_terms(ph);
+    const std::shared_ptr<const mpm::Material> material = run_material(cfg_, elastic_, ph, tm);
     mpm::SolverOptions opt = mpm::solver_options(cfg_);
     opt.gravity = ph.gravity;  // the physics under test, fixed substeps
     opt.max_dt = ph.dt;
     opt.adaptive = false;
-    opt.damping = ph.rayleigh_alpha;
-    // The effects that act on the particles' stresses (see the header), per particle id; the
-    // arrays are filled once the particles are seeded.
-    const bool region = ph.has_region && ph.region_factor != 1.0;
-    const bool visco = ph.prony_g > 0;
-    const bool kv = ph.rayleigh_beta != 0;
-    std::vector<double> factor;   // stress factor by id (region)
-    std::vector<double> history;  // Prony stress by id, 9 each, in the particle's rotated frame
-    const double mu0 = ph.youngs_modulus / (2 * (1 + ph.poisson_ratio));
-    const double lambda0 = ph.youngs_modulus * ph.poisson_ratio /
-                           ((1 + ph.poisson_ratio) * (1 - 2 * ph.poisson_ratio));
-    if (region || visco || kv)
-      opt.stress_hook = [&](const mpm::Particles& Q, double* tau, double dt) {
-        const double rv = visco ? dt / ph.prony_tau : 0.0;
-        for (std::size_t i = 0; i < Q.size(); ++i) {
-          const auto id = static_cast<std::size_t>(Q.id[i]);
-          double* s = tau + 9 * i;
-          const double f = region ? factor[id] : 1.0;
-          if (f != 1.0)
-            for (int k = 0; k < 9; ++k) s[k] *= f;
-          if (visco) {
-            // q' = (g P - q) / tau, backward Euler, in the rotated frame R^T tau R so that a
-            // rigid rotation carries the relaxing stress along.
-            const Eigen::Matrix3d R = rotation_of(&Q.F[9 * i]);
-            Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> S(s);
-            Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> q(&history[9 * id]);
-            q = (q + rv * ph.prony_g * (R.transpose() * S * R)) / (1.0 + rv);
-            S -= R * q * R.transpose();
-          }
-          if (kv) {
-            const double* C = &Q.C[9 * i];
-            const double tr = C[0] + C[4] + C[8];
-            for (int a = 0; a < 3; ++a)
-              for (int b = 0; b < 3; ++b)
-                s[3 * a + b] +=
-                    ph.rayleigh_beta * f *
-                    (mu0 * (C[3 * a + b] + C[3 * b + a]) + (a == b ? lambda0 * tr : 0.0));
-          }
-        }
-      };
-    // The effect's ground first: where it lies on a plane of the deck, its friction acts on
-    // the approaching velocity before the deck's plane sees it.
+    opt.damping = tm.rayleigh_alpha;
+    StressEffects stress_effects(ph, tm);
+    stress_effects.install(opt);
+    // The effects' planes first: where one lies on a plane of the deck, its friction acts on
+    // the approaching velocity before the deck's plane sees it. They act on the grid nodes:
+    // blended over a cell above them, so that the run changes continuously with the height (a
+    // fit's finite differences see it move).
     std::vector<BoundaryConfig> bcs;
-    // Its plane acts on the grid nodes: blended over a cell above it, so that the run changes
-    // continuously with the height (a fit's finite differences see it move).
-    if (ph.ground) {
-      bcs.push_back(mpm::surface_collider("separate", {0, 0, ph.ground_height}, {0, 0, 1},
-                                          ph.ground_friction));
+    for (const auto& c : tm.planes) {
+      bcs.push_back(mpm::surface_collider("separate", c.point, c.normal, c.friction));
       bcs.back().soft_width = cfg_.voxel_size;
     }
     bcs.insert(bcs.end(), cfg_.boundaries.begin(), cfg_.boundaries.end());
@@ -263,141 +419,37 @@ Trace MpmModel::run(const Physics& ph, const std::vector<ChannelRequest>& req) c
     if (np == 0) throw InputError(cfg_.source + ": the geometry holds no MPM particle");
     std::int64_t nid = 0;
     for (std::size_t i = 0; i < np; ++i) nid = std::max(nid, P.id[i] + 1);
-    if (region) {
-      factor.assign(static_cast<std::size_t>(nid), 1.0);
-      for (std::size_t i = 0; i < np; ++i)
-        if (ph.region.contains({P.x[3 * i], P.x[3 * i + 1], P.x[3 * i + 2]}))
-          factor[static_cast<std::size_t>(P.id[i])] = ph.region_factor;
-    }
-    if (visco) history.assign(9 * static_cast<std::size_t>(nid), 0.0);
-    // Air drag and dry friction act on the particles' velocities before each substep's P2G:
-    // v / (1 + dt (linear + quadratic |v|) a / m) (implicit in the speed), then the dry
-    // friction's dt a_c taken off the speed, never past zero.
-    const bool drag = ph.drag_linear != 0 || ph.drag_quadratic != 0;
-    const bool dry = ph.coulomb_accel != 0;
+    stress_effects.seeded(P, nid);
     std::vector<double> area;
-    if (drag) area = particle_areas(*cells_, P);
-    auto particle_forces = [&](double dt) {
-      for (std::size_t i = 0; i < P.size(); ++i) {
-        if (P.flag[i] != 0) continue;  // frozen or kinematic
-        double* v = &P.v[3 * i];
-        double speed = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-        if (drag) {
-          const double a = area[static_cast<std::size_t>(P.id[i])];
-          const double k =
-              1.0 / (1.0 + dt * (ph.drag_linear + ph.drag_quadratic * speed) * a / P.mass[i]);
-          for (int d = 0; d < 3; ++d) v[d] *= k;
-          speed *= k;
-        }
-        if (dry && speed > 0) {
-          const double k = std::max(0.0, 1.0 - dt * ph.coulomb_accel / speed);
-          for (int d = 0; d < 3; ++d) v[d] *= k;
-        }
-      }
-    };
-    // Each marker: the particles within the kernel of its reference point, and their weights.
-    struct Member {
-      std::int64_t id;
-      double w;
-      std::array<double, 3> x0;
-    };
-    std::vector<std::vector<Member>> members(req.size());
-    const double inv_dx = 1.0 / spec.dx;
-    for (std::size_t c = 0; c < req.size(); ++c) {
-      const Vec3d& X = req[c].at.X;
-      double wsum = 0;
-      for (std::size_t i = 0; i < np; ++i) {
-        const double w = bspline((P.x[3 * i] - X[0]) * inv_dx) *
-                         bspline((P.x[3 * i + 1] - X[1]) * inv_dx) *
-                         bspline((P.x[3 * i + 2] - X[2]) * inv_dx);
-        if (w <= 0) continue;
-        members[c].push_back({P.id[i], w, {P.x[3 * i], P.x[3 * i + 1], P.x[3 * i + 2]}});
-        wsum += w;
-      }
-      if (members[c].empty())
-        throw InputError(fmt::format(
-            "no MPM particle within 1.5 cells of the marker at ({}, {}, {})", X[0], X[1], X[2]));
-      for (auto& m : members[c]) m.w /= wsum;
-    }
-    std::unordered_map<std::int64_t, std::size_t> index;
-    auto reindex = [&] {
-      index.clear();
-      for (std::size_t i = 0; i < P.size(); ++i) index[P.id[i]] = i;
-    };
-    reindex();
-    // Marker positions now; a marker whose particles all left (removed) keeps NaN.
-    auto positions = [&](std::vector<double>& out) {
-      out.assign(3 * req.size(), std::nan(""));
-      for (std::size_t c = 0; c < req.size(); ++c) {
-        double u[3] = {0, 0, 0}, wsum = 0;
-        for (const auto& m : members[c]) {
-          auto it = index.find(m.id);
-          if (it == index.end()) continue;
-          const double* x = &P.x[3 * it->second];
-          for (int a = 0; a < 3; ++a) u[a] += m.w * (x[a] - m.x0[a]);
-          wsum += m.w;
-        }
-        if (wsum > 0)
-          for (int a = 0; a < 3; ++a) out[3 * c + a] = req[c].at.X[a] + u[a] / wsum;
-      }
-    };
-    std::vector<std::size_t> next(req.size(), 0);  // next sample of each channel
-    std::vector<double> prev, cur;
+    if (!tm.node_forces.empty()) area = particle_areas(*cells_, P);
+    Markers markers(req, P, spec.dx);
+    std::vector<double> prev, cur, tau(9 * np);
     double t = 0;
-    auto sample = [&](double t0, double t1, bool last) {
-      for (std::size_t c = 0; c < req.size(); ++c)
-        while (next[c] < req[c].t.size() && (req[c].t[next[c]] <= t1 || last)) {
-          const double ts = req[c].t[next[c]];
-          const double f = t1 > t0 ? std::clamp((ts - t0) / (t1 - t0), 0.0, 1.0) : 1.0;
-          for (int a = 0; a < 3; ++a)
-            tr.channel[c][3 * next[c] + a] = (1 - f) * prev[3 * c + a] + f * cur[3 * c + a];
-          ++next[c];
-        }
-    };
-    std::vector<double> tau(9 * np);
-    auto stresses = [&] {
-      const std::size_t n = P.size();
-      tau.resize(9 * n);
-      material->stress(n, P.F.data(), P.state.data(), tau.data());
-      for (std::size_t i = 0; i < n; ++i) {
-        const double* s = &tau[9 * i];
-        const double m = (s[0] + s[4] + s[8]) / 3;
-        const double d0 = s[0] - m, d1 = s[4] - m, d2 = s[8] - m;
-        const double j2 = 0.5 * (d0 * d0 + d1 * d1 + d2 * d2) +
-                          0.25 * ((s[1] + s[3]) * (s[1] + s[3]) + (s[2] + s[6]) * (s[2] + s[6]) +
-                                  (s[5] + s[7]) * (s[5] + s[7]));
-        tr.max_mises = std::max(tr.max_mises, std::sqrt(3 * j2));
-        const double* v = &P.v[3 * i];
-        tr.max_speed = std::max(tr.max_speed, std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]));
-      }
-    };
-    positions(cur);
+    markers.positions(cur);
     prev = cur;
-    sample(0, 0, false);  // samples at t = 0
+    markers.sample(0, 0, false, prev, cur, tr);  // samples at t = 0
     const long steps = static_cast<long>(std::ceil(t_end / ph.dt - 1e-9));
     for (long k = 0; k < steps; ++k) {
       const double dt = std::min(ph.dt, t_end - t);
       if (!(dt > 0)) break;
       const double t1 = (k + 1 == steps) ? t_end : t + dt;
       // Markers are located only around substeps a sample falls in (at 200 Hz, one in ~20).
-      bool any = false;
-      for (std::size_t c = 0; c < req.size(); ++c)
-        any = any || (next[c] < req[c].t.size() && req[c].t[next[c]] <= t1);
-      if (any) positions(prev);  // at t, before the substep
-      if (drag || dry) particle_forces(dt);
+      const bool any = markers.due(t1);
+      if (any) markers.positions(prev);  // at t, before the substep
+      if (!tm.node_forces.empty()) apply_node_forces(tm, area, dt, P);
       solver.substep(t, dt);
       ++tr.steps;
-      if (P.size() != index.size()) reindex();
+      if (markers.stale()) markers.reindex();
       if (any) {
-        positions(cur);
-        sample(t, t1, false);
-        stresses();
+        markers.positions(cur);
+        markers.sample(t, t1, false, prev, cur, tr);
+        track_peaks(*material, P, tau, tr);
       }
       t = t1;
     }
-    positions(cur);
+    markers.positions(cur);
     prev = cur;
-    sample(t, t, true);
+    markers.sample(t, t, true, prev, cur, tr);
     for (const auto& ch : tr.channel)
       for (double x : ch)
         if (!std::isfinite(x)) {

@@ -10,6 +10,7 @@
 #include "materials/FixedCorotated.hpp"
 #include "materials/LinearElastic.hpp"
 #include "materials/NeoHookean.hpp"
+#include "materials/Registry.hpp"
 #include "materials/StVK.hpp"
 #include "neural/WeightSource.hpp"
 
@@ -59,9 +60,14 @@ auto local_stress_of(const Material& mat) {
 template <class F>
 auto with_law(const MaterialConfig& m, F&& f) {
   const double E = m.youngs_modulus, nu = m.poisson_ratio;
-  if (m.model == "neo_hookean") return f(materials::NeoHookean::from_young_poisson(E, nu));
-  if (m.model == "stvk") return f(materials::StVK::from_young_poisson(E, nu));
-  if (m.model == "linear") return f(materials::LinearElastic::from_young_poisson(E, nu));
+  const auto at = m.param_where.find("model");  // an old spelling the deck wrote warns once
+  const std::string law = materials::deck_law(m.model, materials::Solver::Voxel,
+                                              at == m.param_where.end() ? "" : at->second);
+  if (law == materials::NeoHookean::name)
+    return f(materials::NeoHookean::from_young_poisson(E, nu));
+  if (law == materials::StVK::name) return f(materials::StVK::from_young_poisson(E, nu));
+  if (law == materials::LinearElastic::name)
+    return f(materials::LinearElastic::from_young_poisson(E, nu));
   return f(materials::FixedCorotated::from_young_poisson(E, nu));
 }
 

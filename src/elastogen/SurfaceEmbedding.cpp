@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "core/Error.hpp"
+#include "io/GridBox.hpp"
 #include "parallel/Comm.hpp"
 
 namespace gen4d::elastogen {
@@ -101,25 +102,14 @@ std::vector<PointAnchor> SurfaceEmbedding::build_voxels(const geometry::Shape& s
   long header[2] = {0, 0};
   if (rank_ == 0) {
     std::sort(all.begin(), all.end());
-    auto node_id = [&](const std::array<long, 3>& q) {
-      return (q[2] * nodes[1] + q[1]) * nodes[0] + q[0];
-    };
-    const long corner[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
     std::vector<std::array<long, 4>> quads;
     quads.reserve(all.size());
     for (long key : all) {
       const long cell = key / 6, a = (key % 6) / 2, side = key % 2;
       const std::array<long, 3> c{cell % cells[0], (cell / cells[0]) % cells[1],
                                   cell / (cells[0] * cells[1])};
-      const long b = (a + 1) % 3, cc = (a + 2) % 3;  // b x cc = a: this order faces +a
-      std::array<long, 4> quad{};
-      for (int q = 0; q < 4; ++q) {
-        std::array<long, 3> nd = c;
-        nd[a] += side;
-        nd[b] += corner[q][0];
-        nd[cc] += corner[q][1];
-        quad[side ? q : 3 - q] = node_id(nd);
-      }
+      const std::array<long, 4> quad =
+          io::cell_face_nodes(c, static_cast<int>(a), static_cast<int>(side), nodes);
       quads.push_back(quad);
     }
     std::vector<long> verts;

@@ -192,17 +192,10 @@ class KdTree {
   std::vector<Node> nodes_;
 };
 
-}  // namespace
-
-FillingResult fill_interior(const SplatSet& splats, const FillingOptions& o) {
-  check_options(o);
-  check_splats(splats);
-  const auto t0 = Clock::now();
-  Ticker ticker(o.progress_interval);
-  FillingResult res;
-  const std::size_t n = splats.size();
-
-  // Grid: cubic cells, dx = longest edge / n_grid (PhysGaussian's boundary option).
+//! The grid's box (given, or the splats' centres) into `res` (dims, origin, dx, empty cells).
+//! Returns the box before padding: a given box also bounds which splats count.
+std::array<std::array<double, 3>, 2> make_grid(const SplatSet& splats, const FillingOptions& o,
+                                               FillingResult& res) {
   std::array<double, 3> lo, hi;
   if (o.has_box) {
     lo = o.box_lo;
@@ -212,7 +205,7 @@ FillingResult fill_interior(const SplatSet& splats, const FillingOptions& o) {
       lo[a] = std::numeric_limits<double>::infinity();
       hi[a] = -lo[a];
     }
-    for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t i = 0; i < splats.size(); ++i)
       for (int a = 0; a < 3; ++a) {
         lo[a] = std::min(lo[a], splats.position[3 * i + a]);
         hi[a] = std::max(hi[a], splats.position[3 * i + a]);
@@ -229,15 +222,72 @@ FillingResult fill_interior(const SplatSet& splats, const FillingOptions& o) {
     res.origin[a] = lo[a] - pad * dx;
   }
   res.dx = dx;
-  const int nx = res.dims[0], ny = res.dims[1], nz = res.dims[2];
-  const std::size_t ncells = static_cast<std::size_t>(nx) * ny * nz;
+  const std::size_t ncells = static_cast<std::size_t>(res.dims[0]) * res.dims[1] * res.dims[2];
   res.cells.assign(ncells, FillCell::empty);
   res.density.assign(ncells, 0.0);
-  std::vector<int> count(ncells, 0);  // original Gaussians centred in each cell
+  return {lo, hi};
+}
 
-  // Density (seed eq. 11; PhysGaussian's densify_grids): a cell gets opacity x the mean of the
-  // Gaussian's kernel at its 8 corners, for the cells within the clamped support.
+//! Adds splat p's density to the cells within its clamped support around cell c (seed eq. 11;
+//! PhysGaussian's densify_grids): opacity x the mean of the kernel at each cell's 8 corners.
+void add_splat_density(const SplatSet& splats, std::size_t p, const int c[3],
+                       const FillingOptions& o, FillingResult& res, std::vector<double>& node) {
+  const double dx = res.dx;
   const double var_floor = (0.01 * dx) * (0.01 * dx);
+  const double* x = &splats.position[3 * p];
+  const auto u = splats.covariance(p);
+  Eigen::Matrix3d A;
+  A << u[0], u[1], u[2], u[1], u[3], u[4], u[2], u[4], u[5];
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(A);
+  Eigen::Vector3d lam = eig.eigenvalues();
+  if (!(lam.maxCoeff() > 0) || lam.minCoeff() <= 1e-12 * lam.maxCoeff()) ++res.degenerate_splats;
+  for (int a = 0; a < 3; ++a) lam[a] = std::max(lam[a], var_floor);
+  const Eigen::Matrix3d Q = eig.eigenvectors();
+  const Eigen::Matrix3d Ainv = Q * lam.cwiseInverse().asDiagonal() * Q.transpose();
+  const double reach = o.support_sigmas * std::sqrt(lam.maxCoeff()) / dx;
+  int r = static_cast<int>(std::min(std::ceil(reach), static_cast<double>(o.max_support_cells)));
+  r = std::max(r, 1);
+  if (reach > o.max_support_cells) ++res.clamped_splats;
+
+  // Kernel at the (2r + 2)^3 corners of the cells c - r .. c + r.
+  const int m = 2 * r + 2;
+  node.assign(static_cast<std::size_t>(m) * m * m, 0.0);
+  for (int k = 0; k < m; ++k)
+    for (int j = 0; j < m; ++j)
+      for (int i = 0; i < m; ++i) {
+        const Eigen::Vector3d d(res.origin[0] + (c[0] - r + i) * dx - x[0],
+                                res.origin[1] + (c[1] - r + j) * dx - x[1],
+                                res.origin[2] + (c[2] - r + k) * dx - x[2]);
+        node[(static_cast<std::size_t>(k) * m + j) * m + i] = std::exp(-0.5 * d.dot(Ainv * d));
+      }
+  const double w = splats.opacity[p] / 8.0;
+  const int nx = res.dims[0], ny = res.dims[1], nz = res.dims[2];
+  for (int k = 0; k + 1 < m; ++k) {
+    const int gk = c[2] - r + k;
+    if (gk < 0 || gk >= nz) continue;
+    for (int j = 0; j + 1 < m; ++j) {
+      const int gj = c[1] - r + j;
+      if (gj < 0 || gj >= ny) continue;
+      for (int i = 0; i + 1 < m; ++i) {
+        const int gi = c[0] - r + i;
+        if (gi < 0 || gi >= nx) continue;
+        double s = 0;
+        for (int dk = 0; dk < 2; ++dk)
+          for (int dj = 0; dj < 2; ++dj)
+            for (int di = 0; di < 2; ++di)
+              s += node[(static_cast<std::size_t>(k + dk) * m + j + dj) * m + i + di];
+        res.density[res.cell_index(gi, gj, gk)] += w * s;
+      }
+    }
+  }
+}
+
+//! Every splat's density on the grid; returns the original Gaussians centred in each cell.
+std::vector<int> splat_density(const SplatSet& splats, const FillingOptions& o,
+                               const std::array<std::array<double, 3>, 2>& box, FillingResult& res,
+                               Ticker& ticker) {
+  const std::size_t n = splats.size();
+  std::vector<int> count(res.cells.size(), 0);
   std::vector<double> node;
   for (std::size_t p = 0; p < n; ++p) {
     ticker.tick("density, splat", p, n);
@@ -245,81 +295,50 @@ FillingResult fill_interior(const SplatSet& splats, const FillingOptions& o) {
     int c[3];
     bool inside = true;
     for (int a = 0; a < 3; ++a) {
-      if (o.has_box && !(x[a] > lo[a] && x[a] < hi[a])) inside = false;
-      const double f = std::floor((x[a] - res.origin[a]) / dx);
+      if (o.has_box && !(x[a] > box[0][a] && x[a] < box[1][a])) inside = false;
+      const double f = std::floor((x[a] - res.origin[a]) / res.dx);
       c[a] = static_cast<int>(std::clamp(f, 0.0, static_cast<double>(res.dims[a] - 1)));
     }
     if (!inside) continue;
     ++res.splats_in_box;
     ++count[res.cell_index(c[0], c[1], c[2])];
+    add_splat_density(splats, p, c, o, res, node);
+  }
+  return count;
+}
 
-    const auto u = splats.covariance(p);
-    Eigen::Matrix3d A;
-    A << u[0], u[1], u[2], u[1], u[3], u[4], u[2], u[4], u[5];
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(A);
-    Eigen::Vector3d lam = eig.eigenvalues();
-    if (!(lam.maxCoeff() > 0) || lam.minCoeff() <= 1e-12 * lam.maxCoeff()) ++res.degenerate_splats;
-    for (int a = 0; a < 3; ++a) lam[a] = std::max(lam[a], var_floor);
-    const Eigen::Matrix3d Q = eig.eigenvectors();
-    const Eigen::Matrix3d Ainv = Q * lam.cwiseInverse().asDiagonal() * Q.transpose();
-    const double reach = o.support_sigmas * std::sqrt(lam.maxCoeff()) / dx;
-    int r = static_cast<int>(std::min(std::ceil(reach), static_cast<double>(o.max_support_cells)));
-    r = std::max(r, 1);
-    if (reach > o.max_support_cells) ++res.clamped_splats;
+//! New particles at hashed positions inside their cells, capped at max_particles.
+class Placer {
+ public:
+  Placer(const FillingOptions& o, const FillingResult& res) : o_(o), res_(res) {}
 
-    // Kernel at the (2r + 2)^3 corners of the cells c - r .. c + r.
-    const int m = 2 * r + 2;
-    node.assign(static_cast<std::size_t>(m) * m * m, 0.0);
-    for (int k = 0; k < m; ++k)
-      for (int j = 0; j < m; ++j)
-        for (int i = 0; i < m; ++i) {
-          const Eigen::Vector3d d(res.origin[0] + (c[0] - r + i) * dx - x[0],
-                                  res.origin[1] + (c[1] - r + j) * dx - x[1],
-                                  res.origin[2] + (c[2] - r + k) * dx - x[2]);
-          node[(static_cast<std::size_t>(k) * m + j) * m + i] = std::exp(-0.5 * d.dot(Ainv * d));
-        }
-    const double w = splats.opacity[p] / 8.0;
-    for (int k = 0; k + 1 < m; ++k) {
-      const int gk = c[2] - r + k;
-      if (gk < 0 || gk >= nz) continue;
-      for (int j = 0; j + 1 < m; ++j) {
-        const int gj = c[1] - r + j;
-        if (gj < 0 || gj >= ny) continue;
-        for (int i = 0; i + 1 < m; ++i) {
-          const int gi = c[0] - r + i;
-          if (gi < 0 || gi >= nx) continue;
-          double s = 0;
-          for (int dk = 0; dk < 2; ++dk)
-            for (int dj = 0; dj < 2; ++dj)
-              for (int di = 0; di < 2; ++di)
-                s += node[(static_cast<std::size_t>(k + dk) * m + j + dj) * m + i + di];
-          res.density[res.cell_index(gi, gj, gk)] += w * s;
-        }
-      }
+  void place(std::size_t cell, int i, int j, int k, int how_many) {
+    if (positions.size() / 3 + how_many > o_.max_particles)
+      bad_option(fmt::format("more than max_particles = {} particles", o_.max_particles));
+    const double dx = res_.dx;
+    for (int q = 0; q < how_many; ++q) {
+      const std::uint64_t h = mix(mix(o_.seed) ^ mix(cell * 1024 + static_cast<std::uint64_t>(q)));
+      const double u[3] = {unit(mix(h ^ 1)), unit(mix(h ^ 2)), unit(mix(h ^ 3))};
+      positions.push_back(res_.origin[0] + (i + u[0]) * dx);
+      positions.push_back(res_.origin[1] + (j + u[1]) * dx);
+      positions.push_back(res_.origin[2] + (k + u[2]) * dx);
     }
   }
-  res.seconds_density = seconds_since(t0);
-  const auto t1 = Clock::now();
 
-  res.particle_volume = dx * dx * dx / o.max_particles_per_cell;
-  res.particle_radius = std::cbrt(3 * res.particle_volume / (4 * kPi));
   std::vector<double> positions;
-  auto place = [&](std::size_t cell, int i, int j, int k, int how_many) {
-    if (positions.size() / 3 + how_many > o.max_particles)
-      bad_option(fmt::format("more than max_particles = {} particles", o.max_particles));
-    for (int q = 0; q < how_many; ++q) {
-      const std::uint64_t h = mix(mix(o.seed) ^ mix(cell * 1024 + static_cast<std::uint64_t>(q)));
-      const double u[3] = {unit(mix(h ^ 1)), unit(mix(h ^ 2)), unit(mix(h ^ 3))};
-      positions.push_back(res.origin[0] + (i + u[0]) * dx);
-      positions.push_back(res.origin[1] + (j + u[1]) * dx);
-      positions.push_back(res.origin[2] + (k + u[2]) * dx);
-    }
-  };
 
-  // Surface cells (PhysGaussian's fill_dense_grids): topped up to max_particles_per_cell.
-  for (int k = 0; k < nz; ++k)
-    for (int j = 0; j < ny; ++j)
-      for (int i = 0; i < nx; ++i) {
+ private:
+  const FillingOptions& o_;
+  const FillingResult& res_;
+};
+
+//! Marks occupied and surface cells (PhysGaussian's fill_dense_grids) and tops the surface cells
+//! up to max_particles_per_cell.
+void fill_surface_cells(const FillingOptions& o, const std::vector<int>& count, FillingResult& res,
+                        Placer& placer) {
+  for (int k = 0; k < res.dims[2]; ++k)
+    for (int j = 0; j < res.dims[1]; ++j)
+      for (int i = 0; i < res.dims[0]; ++i) {
         const std::size_t cell = res.cell_index(i, j, k);
         if (count[cell] > 0) res.cells[cell] = FillCell::occupied;
         if (!(res.density[cell] > o.density_threshold)) continue;
@@ -327,17 +346,19 @@ FillingResult fill_interior(const SplatSet& splats, const FillingOptions& o) {
         ++res.surface_cells;
         const int diff = o.max_particles_per_cell - count[cell];
         if (o.fill_surface_cells && diff > 0) {
-          place(cell, i, j, k, diff);
+          placer.place(cell, i, j, k, diff);
           res.surface_particles += diff;
         }
       }
+}
 
-  // Interior cells (PhysGaussian's internal_filling): an empty cell whose rays along the axis
-  // directions (but the excluded one) all reach a cell above search_threshold, and whose ray
-  // along ray_cast_direction rises above it an odd number of times. Each direction is one sweep
-  // of every grid line from its far end, so the test costs O(cells) instead of O(cells n_grid).
-  std::vector<std::uint8_t> ok(ncells, 1);
-  const std::array<int, 3> stride{1, nx, nx * ny};
+//! The interior test of every cell (PhysGaussian's internal_filling): its rays along the axis
+//! directions (but the excluded one) all reach a cell above search_threshold, and its ray along
+//! ray_cast_direction rises above it an odd number of times. Each direction is one sweep of every
+//! grid line from its far end, so the test costs O(cells) instead of O(cells n_grid).
+std::vector<std::uint8_t> interior_test(const FillingOptions& o, const FillingResult& res) {
+  std::vector<std::uint8_t> ok(res.cells.size(), 1);
+  const std::array<int, 3> stride{1, res.dims[0], res.dims[0] * res.dims[1]};
   auto above = [&](std::size_t cell) { return res.density[cell] > o.search_threshold; };
   auto for_each_line = [&](int axis, auto&& fn) {
     const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
@@ -353,9 +374,8 @@ FillingResult fill_interior(const SplatSet& splats, const FillingOptions& o) {
   };
   for (int dir = 0; dir < 6; ++dir) {
     if (dir == o.search_exclude_direction) continue;
-    const int axis = dir / 2;
     const bool positive = dir % 2 == 0;
-    for_each_line(axis, [&](std::size_t start, std::size_t step, int len) {
+    for_each_line(dir / 2, [&](std::size_t start, std::size_t step, int len) {
       bool seen = false;  // a cell above the threshold strictly beyond the current one
       for (int t = 0; t < len; ++t) {
         const int m = positive ? len - 1 - t : t;
@@ -365,39 +385,44 @@ FillingResult fill_interior(const SplatSet& splats, const FillingOptions& o) {
       }
     });
   }
-  if (o.ray_cast_direction >= 0) {
-    const int axis = o.ray_cast_direction / 2;
-    const bool positive = o.ray_cast_direction % 2 == 0;
-    for_each_line(axis, [&](std::size_t start, std::size_t step, int len) {
-      // Crossings from cell m: the ray starts "below" (an empty cell), so a rise at the next
-      // cell m+1 counts when it is above, and at q >= m+2 when q is above and q-1 is not.
-      int rises = 0;  // rises at q >= m + 2
-      for (int t = 0; t < len; ++t) {
-        const int m = positive ? len - 1 - t : t;
-        const int next = positive ? m + 1 : m - 1;
-        const bool has_next = next >= 0 && next < len;
-        const bool next_above = has_next && above(start + step * next);
-        const int crossings = rises + (next_above ? 1 : 0);
-        if (crossings % 2 == 0) ok[start + step * m] = 0;
-        if (next_above && !above(start + step * m)) ++rises;
-      }
-    });
-  }
-  for (int k = 0; k < nz; ++k)
-    for (int j = 0; j < ny; ++j)
-      for (int i = 0; i < nx; ++i) {
+  if (o.ray_cast_direction < 0) return ok;
+  const bool positive = o.ray_cast_direction % 2 == 0;
+  for_each_line(o.ray_cast_direction / 2, [&](std::size_t start, std::size_t step, int len) {
+    // Crossings from cell m: the ray starts "below" (an empty cell), so a rise at the next
+    // cell m+1 counts when it is above, and at q >= m+2 when q is above and q-1 is not.
+    int rises = 0;  // rises at q >= m + 2
+    for (int t = 0; t < len; ++t) {
+      const int m = positive ? len - 1 - t : t;
+      const int next = positive ? m + 1 : m - 1;
+      const bool has_next = next >= 0 && next < len;
+      const bool next_above = has_next && above(start + step * next);
+      const int crossings = rises + (next_above ? 1 : 0);
+      if (crossings % 2 == 0) ok[start + step * m] = 0;
+      if (next_above && !above(start + step * m)) ++rises;
+    }
+  });
+  return ok;
+}
+
+//! Fills the empty cells that pass the interior test with max_particles_per_cell particles.
+void fill_interior_cells(const FillingOptions& o, FillingResult& res, Placer& placer) {
+  const std::vector<std::uint8_t> ok = interior_test(o, res);
+  for (int k = 0; k < res.dims[2]; ++k)
+    for (int j = 0; j < res.dims[1]; ++j)
+      for (int i = 0; i < res.dims[0]; ++i) {
         const std::size_t cell = res.cell_index(i, j, k);
         if (res.cells[cell] != FillCell::empty || !ok[cell]) continue;
         res.cells[cell] = FillCell::interior;
         ++res.interior_cells;
-        place(cell, i, j, k, o.max_particles_per_cell);
+        placer.place(cell, i, j, k, o.max_particles_per_cell);
         res.interior_particles += o.max_particles_per_cell;
       }
-  res.seconds_cells = seconds_since(t1);
-  const auto t2 = Clock::now();
+}
 
-  // Attributes of the nearest original Gaussian (all of them, as PhysGaussian's
-  // init_filled_particles), found in a k-d tree.
+//! The new particles at `positions` with the attributes of the nearest original Gaussian (all
+//! of them, as PhysGaussian's init_filled_particles), found in a k-d tree.
+void nearest_attributes(const SplatSet& splats, std::vector<double> positions, FillingResult& res,
+                        Ticker& ticker) {
   SplatSet& out = res.particles;
   const std::size_t added = positions.size() / 3;
   const std::size_t per_sh = 3 * static_cast<std::size_t>(splats.coefficients());
@@ -416,14 +441,39 @@ FillingResult fill_interior(const SplatSet& splats, const FillingOptions& o) {
     out.opacity[q] = splats.opacity[near];
     std::copy_n(splats.sh.begin() + per_sh * near, per_sh, out.sh.begin() + per_sh * q);
   }
+}
+
+}  // namespace
+
+FillingResult fill_interior(const SplatSet& splats, const FillingOptions& o) {
+  check_options(o);
+  check_splats(splats);
+  const auto t0 = Clock::now();
+  Ticker ticker(o.progress_interval);
+  FillingResult res;
+  const auto box = make_grid(splats, o, res);
+  const std::vector<int> count = splat_density(splats, o, box, res, ticker);
+  res.seconds_density = seconds_since(t0);
+  const auto t1 = Clock::now();
+
+  const double dx = res.dx;
+  res.particle_volume = dx * dx * dx / o.max_particles_per_cell;
+  res.particle_radius = std::cbrt(3 * res.particle_volume / (4 * kPi));
+  Placer placer(o, res);
+  fill_surface_cells(o, count, res, placer);
+  fill_interior_cells(o, res, placer);
+  res.seconds_cells = seconds_since(t1);
+  const auto t2 = Clock::now();
+
+  nearest_attributes(splats, std::move(placer.positions), res, ticker);
   res.seconds_attributes = seconds_since(t2);
   res.seconds_total = seconds_since(t0);
   if (res.seconds_total > o.progress_interval || res.clamped_splats > 0)
     log::info(
         "particle filling: {} surface + {} interior particles on {}x{}x{} cells in {:.1f} s "
         "({} degenerate, {} clamped Gaussians)",
-        res.surface_particles, res.interior_particles, nx, ny, nz, res.seconds_total,
-        res.degenerate_splats, res.clamped_splats);
+        res.surface_particles, res.interior_particles, res.dims[0], res.dims[1], res.dims[2],
+        res.seconds_total, res.degenerate_splats, res.clamped_splats);
   return res;
 }
 

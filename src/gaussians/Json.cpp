@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "core/Error.hpp"
+#include "core/TextFile.hpp"
 #include "io/Xdmf.hpp"
 
 namespace gen4d::gaussians {
@@ -159,6 +160,21 @@ void newline(std::string& out, int indent, int depth) {
   out.append(static_cast<std::size_t>(indent) * depth, ' ');
 }
 
+//! `open`, then `count` items written by item(i) one per line at depth + 1 (or ", "-separated
+//! when indent is 0), then `close`.
+template <class Item>
+void dump_items(std::string& out, int indent, int depth, char open, char close, std::size_t count,
+                Item&& item) {
+  out += open;
+  for (std::size_t i = 0; i < count; ++i) {
+    if (i) out += indent > 0 ? "," : ", ";
+    newline(out, indent, depth + 1);
+    item(i);
+  }
+  if (count > 0) newline(out, indent, depth);
+  out += close;
+}
+
 }  // namespace
 
 void JsonValue::dump_to(std::string& out, int indent, int depth) const {
@@ -184,26 +200,15 @@ void JsonValue::dump_to(std::string& out, int indent, int depth) const {
       dump_string(out, string_);
       break;
     case Type::Array:
-      out += '[';
-      for (std::size_t i = 0; i < items_.size(); ++i) {
-        if (i) out += indent > 0 ? "," : ", ";
-        newline(out, indent, depth + 1);
-        items_[i].dump_to(out, indent, depth + 1);
-      }
-      if (!items_.empty()) newline(out, indent, depth);
-      out += ']';
+      dump_items(out, indent, depth, '[', ']', items_.size(),
+                 [&](std::size_t i) { items_[i].dump_to(out, indent, depth + 1); });
       break;
     case Type::Object:
-      out += '{';
-      for (std::size_t i = 0; i < members_.size(); ++i) {
-        if (i) out += indent > 0 ? "," : ", ";
-        newline(out, indent, depth + 1);
+      dump_items(out, indent, depth, '{', '}', members_.size(), [&](std::size_t i) {
         dump_string(out, members_[i].first);
         out += ": ";
         members_[i].second.dump_to(out, indent, depth + 1);
-      }
-      if (!members_.empty()) newline(out, indent, depth);
-      out += '}';
+      });
       break;
   }
 }
@@ -291,16 +296,36 @@ class JsonParser {
     return v;
   }
 
-  JsonValue parse_object(int depth) {
-    ++pos_;  // '{'
-    JsonValue obj = JsonValue::object();
+  //! The items of an object or array from its opening bracket through `close`, each read by
+  //! `item`; `what` names the container in messages.
+  template <class Item>
+  void parse_items(char close, const char* what, Item&& item) {
+    ++pos_;  // '{' or '['
     skip_ws();
-    if (pos_ < t_.size() && t_[pos_] == '}') {
+    if (pos_ < t_.size() && t_[pos_] == close) {
       ++pos_;
-      return obj;
+      return;
     }
     for (;;) {
       skip_ws();
+      item();
+      skip_ws();
+      if (pos_ < t_.size() && t_[pos_] == ',') {
+        ++pos_;
+        continue;
+      }
+      if (pos_ < t_.size() && t_[pos_] == close) {
+        ++pos_;
+        return;
+      }
+      fail(std::string("expected ',' or '") + close + "' in " + what + ", found " +
+           describe_here());
+    }
+  }
+
+  JsonValue parse_object(int depth) {
+    JsonValue obj = JsonValue::object();
+    parse_items('}', "an object", [&] {
       if (pos_ >= t_.size() || t_[pos_] != '"')
         fail("expected a member name in double quotes, found " + describe_here());
       std::string key = parse_string();
@@ -313,41 +338,14 @@ class JsonParser {
       skip_ws();
       JsonValue v = parse_value(depth + 1);
       obj.members_.emplace_back(std::move(key), std::move(v));
-      skip_ws();
-      if (pos_ < t_.size() && t_[pos_] == ',') {
-        ++pos_;
-        continue;
-      }
-      if (pos_ < t_.size() && t_[pos_] == '}') {
-        ++pos_;
-        return obj;
-      }
-      fail("expected ',' or '}' in an object, found " + describe_here());
-    }
+    });
+    return obj;
   }
 
   JsonValue parse_array(int depth) {
-    ++pos_;  // '['
     JsonValue arr = JsonValue::array();
-    skip_ws();
-    if (pos_ < t_.size() && t_[pos_] == ']') {
-      ++pos_;
-      return arr;
-    }
-    for (;;) {
-      skip_ws();
-      arr.items_.push_back(parse_value(depth + 1));
-      skip_ws();
-      if (pos_ < t_.size() && t_[pos_] == ',') {
-        ++pos_;
-        continue;
-      }
-      if (pos_ < t_.size() && t_[pos_] == ']') {
-        ++pos_;
-        return arr;
-      }
-      fail("expected ',' or ']' in an array, found " + describe_here());
-    }
+    parse_items(']', "an array", [&] { arr.items_.push_back(parse_value(depth + 1)); });
+    return arr;
   }
 
   unsigned hex4() {
@@ -479,12 +477,7 @@ JsonValue parse_json(const std::string& text, const std::string& source) {
 }
 
 JsonValue read_json_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open the JSON file");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) throw InputError(path + ": cannot read the JSON file");
-  return parse_json(ss.str(), path);
+  return parse_json(read_whole_file(path, "JSON file"), path);
 }
 
 void write_json_file(const std::string& path, const JsonValue& value, int indent) {

@@ -565,6 +565,55 @@ PgVec3 add(const PgVec3& a, const PgVec3& b, double f) {
   return {a[0] + f * b[0], a[1] + f * b[1], a[2] + f * b[2]};
 }
 
+//! A number key read straight into a member; `positive`: it must be > 0.
+struct NumberKey {
+  const char* name;
+  double PhysGaussianParams::*member;
+  bool positive;
+};
+constexpr NumberKey kNumberKeys[] = {
+    {"grid_lim", &PhysGaussianParams::grid_lim, true},
+    {"E", &PhysGaussianParams::E, true},
+    {"yield_stress", &PhysGaussianParams::yield_stress, false},
+    {"xi", &PhysGaussianParams::xi, false},
+    {"friction_angle", &PhysGaussianParams::friction_angle, false},
+    {"plastic_viscosity", &PhysGaussianParams::plastic_viscosity, false},
+    {"rpic_damping", &PhysGaussianParams::rpic_damping, false},
+    {"softening", &PhysGaussianParams::softening, false},
+    {"opacity_threshold", &PhysGaussianParams::opacity_threshold, false},
+    {"grid_v_damping_scale", &PhysGaussianParams::grid_v_damping_scale, false},
+    {"substep_dt", &PhysGaussianParams::substep_dt, true},
+    {"frame_dt", &PhysGaussianParams::frame_dt, true},
+    {"scale", &PhysGaussianParams::scale, true},
+};
+
+//! A camera number that may be null (left unset).
+struct OptionalKey {
+  const char* name;
+  std::optional<double> PhysGaussianParams::*member;
+};
+constexpr OptionalKey kOptionalKeys[] = {
+    {"init_azimuthm", &PhysGaussianParams::init_azimuthm},
+    {"init_elevation", &PhysGaussianParams::init_elevation},
+    {"init_radius", &PhysGaussianParams::init_radius},
+    {"delta_a", &PhysGaussianParams::delta_a},
+    {"delta_e", &PhysGaussianParams::delta_e},
+    {"delta_r", &PhysGaussianParams::delta_r},
+};
+
+template <class Key, std::size_t N>
+const Key* find_key(const Key (&keys)[N], const std::string& name) {
+  for (const Key& k : keys)
+    if (name == k.name) return &k;
+  return nullptr;
+}
+const NumberKey* find_number_key(const std::string& name) {
+  return find_key(kNumberKeys, name);
+}
+const OptionalKey* find_optional_key(const std::string& name) {
+  return find_key(kOptionalKeys, name);
+}
+
 }  // namespace
 
 PhysGaussianParams read_physgaussian_config(const std::string& path) {
@@ -599,39 +648,21 @@ PhysGaussianParams read_physgaussian_config(const std::string& path) {
               fmt::format("unknown material '{}' (known: jelly, metal, sand, foam, snow, "
                           "plasticine)",
                           p.material));
-    } else if (key == "grid_lim") {
-      p.grid_lim = r.number(v, key);
-      r.check(p.grid_lim > 0, v, key, fmt::format("must be > 0, got {}", p.grid_lim));
+    } else if (const NumberKey* k = find_number_key(key)) {
+      p.*k->member = r.number(v, key);
+      if (k->positive)
+        r.check(p.*k->member > 0, v, key, fmt::format("must be > 0, got {}", p.*k->member));
+      if (k->member == &PhysGaussianParams::yield_stress) p.has_yield_stress = true;
     } else if (key == "nu") {
       p.nu = r.number(v, key);
       r.check(p.nu >= 0 && p.nu <= 0.5, v, key, fmt::format("must be in [0, 0.5], got {}", p.nu));
-    } else if (key == "E") {
-      p.E = r.number(v, key);
-      r.check(p.E > 0, v, key, fmt::format("must be > 0, got {}", p.E));
-    } else if (key == "yield_stress") {
-      p.yield_stress = r.number(v, key);
-      p.has_yield_stress = true;
     } else if (key == "hardening") {
       p.hardening = static_cast<int>(r.integer(v, key));
-    } else if (key == "xi") {
-      p.xi = r.number(v, key);
-    } else if (key == "friction_angle") {
-      p.friction_angle = r.number(v, key);
-    } else if (key == "plastic_viscosity") {
-      p.plastic_viscosity = r.number(v, key);
     } else if (key == "g") {
       p.g = r.vec3(v, key);
       p.has_g = true;
-    } else if (key == "rpic_damping") {
-      p.rpic_damping = r.number(v, key);
     } else if (key == "pic_damping") {
       p.pic_damping = r.number(v, key);
-    } else if (key == "softening") {
-      p.softening = r.number(v, key);
-    } else if (key == "opacity_threshold") {
-      p.opacity_threshold = r.number(v, key);
-    } else if (key == "grid_v_damping_scale") {
-      p.grid_v_damping_scale = r.number(v, key);
     } else if (key == "additional_material_params") {
       const auto& items = r.array(v, key);
       for (std::size_t i = 0; i < items.size(); ++i)
@@ -640,12 +671,6 @@ PhysGaussianParams read_physgaussian_config(const std::string& path) {
       const auto& items = r.array(v, key);
       for (std::size_t i = 0; i < items.size(); ++i)
         p.boundary_conditions.push_back(read_boundary(r, items[i], i));
-    } else if (key == "substep_dt") {
-      p.substep_dt = r.number(v, key);
-      r.check(p.substep_dt > 0, v, key, fmt::format("must be > 0, got {}", p.substep_dt));
-    } else if (key == "frame_dt") {
-      p.frame_dt = r.number(v, key);
-      r.check(p.frame_dt > 0, v, key, fmt::format("must be > 0, got {}", p.frame_dt));
     } else if (key == "frame_num") {
       p.frame_num = static_cast<int>(r.integer(v, key));
       r.check(p.frame_num >= 0, v, key, fmt::format("must be >= 0, got {}", p.frame_num));
@@ -667,9 +692,6 @@ PhysGaussianParams read_physgaussian_config(const std::string& path) {
           r.check((*p.sim_area)[2 * d] < (*p.sim_area)[2 * d + 1], v, key,
                   "each lower bound must be below its upper bound (x0, x1, y0, y1, z0, z1)");
       }
-    } else if (key == "scale") {
-      p.scale = r.number(v, key);
-      r.check(p.scale > 0, v, key, fmt::format("must be > 0, got {}", p.scale));
     } else if (key == "particle_filling") {
       if (!v.is_null()) p.particle_filling = read_filling(r, v, p.n_grid);
     } else if (key == "mpm_space_viewpoint_center") {
@@ -683,15 +705,8 @@ PhysGaussianParams read_physgaussian_config(const std::string& path) {
       p.show_hint = r.boolean(v, key);
     } else if (key == "move_camera") {
       p.move_camera = r.boolean(v, key);
-    } else if (key == "init_azimuthm" || key == "init_elevation" || key == "init_radius" ||
-               key == "delta_a" || key == "delta_e" || key == "delta_r") {
-      std::optional<double>& slot = key == "init_azimuthm"    ? p.init_azimuthm
-                                    : key == "init_elevation" ? p.init_elevation
-                                    : key == "init_radius"    ? p.init_radius
-                                    : key == "delta_a"        ? p.delta_a
-                                    : key == "delta_e"        ? p.delta_e
-                                                              : p.delta_r;
-      if (!v.is_null()) slot = r.number(v, key);
+    } else if (const OptionalKey* k = find_optional_key(key)) {
+      if (!v.is_null()) p.*k->member = r.number(v, key);
     }
   }
   if (p.rotation_degree.size() != p.rotation_axis.size()) {
@@ -808,31 +823,40 @@ PhysGaussianPreprocessed preprocess_physgaussian(const SplatSet& trained,
   return out;
 }
 
-std::string physgaussian_to_deck(const PhysGaussianParams& p, const std::string& ply_path,
-                                 const PhysGaussianPreprocessed& pre, PlySpace space,
-                                 std::vector<std::string>* notes_out,
-                                 const PhysGaussianDeckFiles* files) {
-  std::vector<std::string> notes;
-  auto note = [&](std::string s) { notes.push_back(std::move(s)); };
-  auto fail = [&](const std::string& key, const std::string& msg) {
-    throw InputError(fmt::format("{}: key '{}': {}", p.source, key, msg));
-  };
-  if (p.frame_num < 1) fail("frame_num", "must be >= 1 for a run (nothing to simulate)");
+namespace {
+
+using Notes = std::vector<std::string>;
+
+[[noreturn]] void fail_key(const PhysGaussianParams& p, const std::string& key,
+                           const std::string& msg) {
+  throw InputError(fmt::format("{}: key '{}': {}", p.source, key, msg));
+}
+
+//! fill_cells of the deck: PhysGaussian's filling grid spans the simulation box (grid_lim) with
+//! n_grid cells; gen4d's spans the object, whose longest side the preprocessing made `scale`.
+int deck_fill_cells(const PhysGaussianParams& p) {
+  return p.particle_filling ? std::max(1, static_cast<int>(std::lround(p.particle_filling->n_grid *
+                                                                       p.scale / p.grid_lim)))
+                            : 0;
+}
+
+//! [simulation], [domain] and the splats [[geometry]].
+std::string deck_object(const PhysGaussianParams& p, const std::string& ply_path,
+                        const PhysGaussianPreprocessed& pre, PlySpace space,
+                        const PhysGaussianDeckFiles* files, Notes& notes) {
   const PhysGaussianSimMap& map = pre.map;
-  const double s = map.scale;
-  std::string d;  // the deck
-  d += fmt::format("# Converted from the PhysGaussian config {}\n", p.source);
+  std::string d = fmt::format("# Converted from the PhysGaussian config {}\n", p.source);
   d += "\n[simulation]\nname = \"physgaussian\"\n";
   d += fmt::format("dt = {}\n", num(p.substep_dt));
   d += fmt::format("end_time = {}\n", num(p.frame_dt * p.frame_num));
   d += fmt::format("gravity = {}\n", vec(p.g));
   if (!p.has_g)
-    note(
+    notes.push_back(
         "g: absent; PhysGaussian's default (the scalar 9.8) makes its solver fail, gen4d uses "
         "[0, 0, -9.8]");
   const double steps = p.frame_dt / p.substep_dt;
   if (static_cast<long>(steps) != std::lround(steps))
-    note(fmt::format(
+    notes.push_back(fmt::format(
         "substep_dt: PhysGaussian runs int(frame_dt / substep_dt) = {} substeps per frame, "
         "gen4d rounds frame_dt / dt to {}",
         static_cast<long>(steps), std::lround(steps)));
@@ -840,156 +864,171 @@ std::string physgaussian_to_deck(const PhysGaussianParams& p, const std::string&
 
   d += "\n[[geometry]]\ntype = \"splats\"\n";
   d += fmt::format("file = {}\n", quoted(ply_path));
-  // PhysGaussian's filling grid spans the simulation box (grid_lim) with n_grid cells; gen4d's
-  // spans the object, whose longest side the preprocessing made `scale`.
-  const int fill_cells =
-      p.particle_filling
-          ? std::max(
-                1, static_cast<int>(std::lround(p.particle_filling->n_grid * p.scale / p.grid_lim)))
-          : 0;
+  const int fill_cells = deck_fill_cells(p);
   if (fill_cells > 0) d += fmt::format("fill_cells = {}\n", fill_cells);
   if (space == PlySpace::Trained) {
     const auto [axis, degrees] = axis_angle(map.rotation);
-    d += fmt::format("scale = {}\n", num(s));
+    d += fmt::format("scale = {}\n", num(map.scale));
     d += fmt::format("translate = {}\n", vec(map.translation()));
     d += fmt::format("rotate_axis = {}\n", vec(axis));
     d += fmt::format("rotate_degrees = {}\n", num(degrees));
     d += fmt::format("opacity_threshold = {}\n", num(p.opacity_threshold));
     if (p.sim_area)
-      note(
+      notes.push_back(
           "sim_area: a splats geometry has no crop key; this deck simulates every Gaussian of "
           "the file (write the preprocessed selection with write_splats_ply and convert with "
           "PlySpace::Simulation to honour the crop; the unselected Gaussians are then not "
           "drawn)");
-    note(
+    notes.push_back(
         "opacity_threshold: gen4d keeps a Gaussian whose opacity equals the threshold, "
         "PhysGaussian drops it");
   } else {
     d += "opacity_threshold = 0\n";
     if (p.sim_area && pre.rest.size() && !(files && !files->scenery_ply.empty()))
-      note(
+      notes.push_back(
           fmt::format("sim_area: the {} Gaussians outside it are not drawn (no scenery file "
                       "given)",
                       pre.rest.size()));
     else if (p.sim_area && pre.rest.size())
-      note(
+      notes.push_back(
           fmt::format("sim_area: the {} Gaussians outside it are drawn unmoved from {} "
                       "([render] scenery)",
                       pre.rest.size(), files->scenery_ply));
   }
+  return d;
+}
 
-  // Material: one [material], or [[material]] entries for additional_material_params (the
-  // base model with the box's E, nu and density; later entries win where boxes overlap).
+//! gen4d's MPM model for PhysGaussian's material name.
+std::string deck_model(const std::string& material) {
   std::string model;
-  if (p.material == "jelly") model = "fixed_corotated";
-  if (p.material == "metal" || p.material == "plasticine") model = "von_mises";
-  if (p.material == "sand") model = "drucker_prager";
-  if (p.material == "foam") model = "herschel_bulkley";
-  if (p.material == "snow") model = "snow";
-  // The keys of the model with these elastic constants; `explain` adds the notes (once).
-  const auto material_keys = [&](double E, double nu, double density, bool explain) {
-    std::string m;
-    auto say = [&](std::string s) {
-      if (explain) note(std::move(s));
-    };
-    const double mu = E / (2 * (1 + nu));
-    m += fmt::format("model = {}\n", quoted(model));
-    m += fmt::format("youngs_modulus = {}\n", num(E));
-    m += fmt::format("poisson_ratio = {}\n", num(nu));
-    m += fmt::format("density = {}\n", num(density));
-    if (nu >= 0.5) say("nu: 0.5 is accepted by PhysGaussian, gen4d needs nu < 0.5");
-    say(fmt::format("material: {} -> {}", p.material, model));
-    if (model == "von_mises") {
-      m += fmt::format("yield_stress = {}\n", num(std::sqrt(1.5) * p.yield_stress));
-      say(
-          fmt::format("yield_stress: PhysGaussian's |dev tau| bound {} -> uniaxial sigma_y = "
-                      "sqrt(3/2) x that = {}",
-                      num(p.yield_stress), num(std::sqrt(1.5) * p.yield_stress)));
-      if (p.hardening == 1) {
-        m += fmt::format("hardening = {}\n", num(3 * mu * p.xi));
-        say(fmt::format("hardening = 1, xi = {}: linear hardening modulus 3 mu xi = {} Pa",
-                        num(p.xi), num(3 * mu * p.xi)));
-      }
-      if (p.material == "plasticine")
-        say(
-            fmt::format("softening = {}: not honoured (gen4d's von_mises has no softening); "
-                        "PhysGaussian's plasticine stress is fixed corotated, gen4d's von_mises "
-                        "StVK-Hencky",
-                        num(p.softening)));
-    } else if (p.hardening == 1 || p.xi != 0) {
-      say("hardening / xi: only metal and plasticine use them");
-    }
-    if (model == "drucker_prager") {
-      m += fmt::format("friction_angle = {}\n", num(p.friction_angle));
-      say("sand: PhysGaussian gives sand particles uniform volumes, gen4d shares each cell's "
-          "volume among its Gaussians");
-    }
-    if (model == "herschel_bulkley") {
-      m += fmt::format("yield_stress = {}\n", num(p.yield_stress / std::sqrt(3.0)));
-      m += fmt::format("consistency = {}\n", num(p.plastic_viscosity / 2));
-      m += "flow_index = 1\n";
-      say("foam: yield_stress / sqrt(3) -> shear yield stress, plastic_viscosity / 2 -> "
-          "consistency (PhysGaussian relaxes with mu tr(b) / 3 in place of mu)");
-    }
-    if (model == "snow")
-      say("snow: PhysGaussian computes no stress for snow (no return mapping); gen4d's snow "
-          "model is used instead");
-    return m;
+  if (material == "jelly") model = "fixed_corotated";
+  if (material == "metal" || material == "plasticine") model = "von_mises";
+  if (material == "sand") model = "drucker_prager";
+  if (material == "foam") model = "herschel_bulkley";
+  if (material == "snow") model = "snow";
+  return model;
+}
+
+//! The keys of the model with these elastic constants; `notes` (when given) receives the notes.
+std::string material_keys(const PhysGaussianParams& p, const std::string& model, double E,
+                          double nu, double density, Notes* notes) {
+  std::string m;
+  auto say = [&](std::string s) {
+    if (notes) notes->push_back(std::move(s));
   };
-  if (p.additional_material_params.empty()) {
-    d += "\n[material]\n" + material_keys(p.E, p.nu, p.density, true);
-  } else {
-    d += "\n[[material]]\n" + material_keys(p.E, p.nu, p.density, true);
-    for (const auto& box : p.additional_material_params) {
-      d += fmt::format("\n[[material]]  # additional_material_params, line {}\n", box.line);
-      d += fmt::format("lo = {}\n", vec(add(box.point, box.size, -1)));
-      d += fmt::format("hi = {}\n", vec(add(box.point, box.size, 1)));
-      d += material_keys(box.E, box.nu, box.density, false);
+  const double mu = E / (2 * (1 + nu));
+  m += fmt::format("model = {}\n", quoted(model));
+  m += fmt::format("youngs_modulus = {}\n", num(E));
+  m += fmt::format("poisson_ratio = {}\n", num(nu));
+  m += fmt::format("density = {}\n", num(density));
+  if (nu >= 0.5) say("nu: 0.5 is accepted by PhysGaussian, gen4d needs nu < 0.5");
+  say(fmt::format("material: {} -> {}", p.material, model));
+  if (model == "von_mises") {
+    m += fmt::format("yield_stress = {}\n", num(std::sqrt(1.5) * p.yield_stress));
+    say(
+        fmt::format("yield_stress: PhysGaussian's |dev tau| bound {} -> uniaxial sigma_y = "
+                    "sqrt(3/2) x that = {}",
+                    num(p.yield_stress), num(std::sqrt(1.5) * p.yield_stress)));
+    if (p.hardening == 1) {
+      m += fmt::format("hardening = {}\n", num(3 * mu * p.xi));
+      say(fmt::format("hardening = 1, xi = {}: linear hardening modulus 3 mu xi = {} Pa", num(p.xi),
+                      num(3 * mu * p.xi)));
     }
-    note(fmt::format(
-        "additional_material_params: {} box(es) -> [[material]] entries bound to lo/hi = point "
-        "-/+ size at the rest positions (PhysGaussian's boxes are open, gen4d's closed)",
-        p.additional_material_params.size()));
+    if (p.material == "plasticine")
+      say(
+          fmt::format("softening = {}: not honoured (gen4d's von_mises has no softening); "
+                      "PhysGaussian's plasticine stress is fixed corotated, gen4d's von_mises "
+                      "StVK-Hencky",
+                      num(p.softening)));
+  } else if (p.hardening == 1 || p.xi != 0) {
+    say("hardening / xi: only metal and plasticine use them");
   }
-  std::string mpm_damping;  // [mpm] keys of rpic_damping and grid_v_damping_scale
+  if (model == "drucker_prager") {
+    m += fmt::format("friction_angle = {}\n", num(p.friction_angle));
+    say("sand: PhysGaussian gives sand particles uniform volumes, gen4d shares each cell's "
+        "volume among its Gaussians");
+  }
+  if (model == "herschel_bulkley") {
+    m += fmt::format("yield_stress = {}\n", num(p.yield_stress / std::sqrt(3.0)));
+    m += fmt::format("consistency = {}\n", num(p.plastic_viscosity / 2));
+    m += "flow_index = 1\n";
+    say("foam: yield_stress / sqrt(3) -> shear yield stress, plastic_viscosity / 2 -> "
+        "consistency (PhysGaussian relaxes with mu tr(b) / 3 in place of mu)");
+  }
+  if (model == "snow")
+    say("snow: PhysGaussian computes no stress for snow (no return mapping); gen4d's snow "
+        "model is used instead");
+  return m;
+}
+
+//! One [material], or [[material]] entries for additional_material_params (the base model with
+//! the box's E, nu and density; later entries win where boxes overlap).
+std::string deck_materials(const PhysGaussianParams& p, Notes& notes) {
+  const std::string model = deck_model(p.material);
+  if (p.additional_material_params.empty())
+    return "\n[material]\n" + material_keys(p, model, p.E, p.nu, p.density, &notes);
+  std::string d = "\n[[material]]\n" + material_keys(p, model, p.E, p.nu, p.density, &notes);
+  for (const auto& box : p.additional_material_params) {
+    d += fmt::format("\n[[material]]  # additional_material_params, line {}\n", box.line);
+    d += fmt::format("lo = {}\n", vec(add(box.point, box.size, -1)));
+    d += fmt::format("hi = {}\n", vec(add(box.point, box.size, 1)));
+    d += material_keys(p, model, box.E, box.nu, box.density, nullptr);
+  }
+  notes.push_back(fmt::format(
+      "additional_material_params: {} box(es) -> [[material]] entries bound to lo/hi = point "
+      "-/+ size at the rest positions (PhysGaussian's boxes are open, gen4d's closed)",
+      p.additional_material_params.size()));
+  return d;
+}
+
+//! [mpm] keys of rpic_damping and grid_v_damping_scale.
+std::string deck_damping(const PhysGaussianParams& p, Notes& notes) {
+  std::string keys;
   if (p.rpic_damping > 0 && p.rpic_damping <= 1)
-    mpm_damping += fmt::format("rpic_damping = {}\n", num(p.rpic_damping));
+    keys += fmt::format("rpic_damping = {}\n", num(p.rpic_damping));
   else if (p.rpic_damping < -0.001)
-    mpm_damping += "rpic_damping = -1\n";  // PhysGaussian's PIC
+    keys += "rpic_damping = -1\n";  // PhysGaussian's PIC
   else if (p.rpic_damping != 0)
-    note(
+    notes.push_back(
         fmt::format("rpic_damping = {}: not honoured (gen4d blends C towards its skew part "
                     "for values in [0, 1] and uses PIC below -0.001); APIC is used",
                     num(p.rpic_damping)));
   if (p.grid_v_damping_scale > 0 && p.grid_v_damping_scale < 1)
-    mpm_damping += fmt::format("grid_velocity_scale = {}\n", num(p.grid_v_damping_scale));
+    keys += fmt::format("grid_velocity_scale = {}\n", num(p.grid_v_damping_scale));
   else if (p.grid_v_damping_scale <= 0)
-    note(
+    notes.push_back(
         fmt::format("grid_v_damping_scale = {}: not honoured (gen4d's grid_velocity_scale is "
                     "in (0, 1])",
                     num(p.grid_v_damping_scale)));
-  if (p.pic_damping) note("pic_damping: read by PhysGaussian but used by none of its code");
-  if (p.particle_filling) {
-    const PhysGaussianFilling& f = *p.particle_filling;
-    const PhysGaussianFilling defaults;
-    note(
-        fmt::format("particle_filling: n_grid {} over the box of grid_lim {} is fill_cells = {} "
-                    "over the object of side {} (gen4d's filling bounds each Gaussian's "
-                    "support and searches the nearest Gaussian with a k-d tree)",
-                    f.n_grid, num(p.grid_lim), fill_cells, num(p.scale)));
-    if (f.density_threshold != defaults.density_threshold ||
-        f.search_threshold != defaults.search_threshold ||
-        f.max_particles_per_cell != defaults.max_particles_per_cell ||
-        f.search_exclude_direction != defaults.search_exclude_direction ||
-        f.ray_cast_direction != defaults.ray_cast_direction || f.boundary || f.smooth)
-      note(
-          "particle_filling: only n_grid reaches the deck; its other keys take PhysGaussian's "
-          "defaults (density_threshold 5, search_threshold 3, one particle per cell, rays "
-          "excluding -z and cast along +z, no boundary, no smoothing)");
-  }
+  if (p.pic_damping)
+    notes.push_back("pic_damping: read by PhysGaussian but used by none of its code");
+  return keys;
+}
 
-  // Solver and grid.
-  d += "\n[solver]\nmethod = \"mpm\"\n";
+//! The notes on particle_filling (only n_grid reaches the deck).
+void note_filling(const PhysGaussianParams& p, Notes& notes) {
+  if (!p.particle_filling) return;
+  const PhysGaussianFilling& f = *p.particle_filling;
+  const PhysGaussianFilling defaults;
+  notes.push_back(
+      fmt::format("particle_filling: n_grid {} over the box of grid_lim {} is fill_cells = {} "
+                  "over the object of side {} (gen4d's filling bounds each Gaussian's "
+                  "support and searches the nearest Gaussian with a k-d tree)",
+                  f.n_grid, num(p.grid_lim), deck_fill_cells(p), num(p.scale)));
+  if (f.density_threshold != defaults.density_threshold ||
+      f.search_threshold != defaults.search_threshold ||
+      f.max_particles_per_cell != defaults.max_particles_per_cell ||
+      f.search_exclude_direction != defaults.search_exclude_direction ||
+      f.ray_cast_direction != defaults.ray_cast_direction || f.boundary || f.smooth)
+    notes.push_back(
+        "particle_filling: only n_grid reaches the deck; its other keys take PhysGaussian's "
+        "defaults (density_threshold 5, search_threshold 3, one particle per cell, rays "
+        "excluding -z and cast along +z, no boundary, no smoothing)");
+}
+
+//! [solver], [mpm] (with the damping keys) and [output].
+std::string deck_solver(const PhysGaussianParams& p, const std::string& damping, Notes& notes) {
+  std::string d = "\n[solver]\nmethod = \"mpm\"\n";
   const bool walls =
       std::any_of(p.boundary_conditions.begin(), p.boundary_conditions.end(),
                   [](const PhysGaussianBoundary& b) { return b.type == "bounding_box"; });
@@ -997,132 +1036,232 @@ std::string physgaussian_to_deck(const PhysGaussianParams& p, const std::string&
   d += fmt::format("hi = {}\n", vec({p.grid_lim, p.grid_lim, p.grid_lim}));
   d += "substep = \"fixed\"\n";
   d += fmt::format("boundary_layers = {}\n", walls ? 3 : 0);
-  d += mpm_damping;
-  if (!walls) note("bounding_box: absent, so no grid walls (mpm.boundary_layers = 0)");
-
+  d += damping;
+  if (!walls) notes.push_back("bounding_box: absent, so no grid walls (mpm.boundary_layers = 0)");
   d += fmt::format("\n[output]\nframe_interval = {}\n", num(p.frame_dt));
+  return d;
+}
 
-  // Boundary conditions.
+//! The keys of a cuboid grid condition.
+std::string cuboid_keys(const PhysGaussianParams& p, const PhysGaussianBoundary& b,
+                        const std::string& where, double start, Notes& notes) {
+  std::string e = fmt::format("velocity = {}\n", vec(b.velocity));
+  if (nonzero(b.velocity)) e += "motion = \"moving\"\n";
+  if (b.reset == 1) {
+    e += fmt::format("reset_duration = {}\n", num(15 * p.substep_dt));
+    if (start > 0)
+      notes.push_back(
+          fmt::format("{}: reset = 1 zeroes the grid for 15 substeps after end_time; "
+                      "PhysGaussian also zeroes it before start_time ({}), gen4d does not",
+                      where, num(start)));
+  }
+  return e;
+}
+
+//! The force key of a particle_impulse; "" when its box selects no Gaussian.
+std::string impulse_keys(const PhysGaussianBoundary& b, const PhysGaussianPreprocessed& pre,
+                         const std::string& where, Notes& notes) {
+  long count = 0;
+  for (std::size_t k = 0; k < pre.selected.size(); ++k) {
+    bool in = true;
+    for (int a = 0; a < 3; ++a)
+      in = in && std::fabs(pre.selected.position[3 * k + a] - b.point[a]) < b.size[a];
+    count += in;
+  }
+  if (count == 0) {
+    notes.push_back(fmt::format("{}: particle_impulse selects no Gaussian; left out", where));
+    return "";
+  }
+  notes.push_back(
+      fmt::format("{}: particle_impulse force per particle x {} Gaussians in the box = total "
+                  "force shared by mass (PhysGaussian: force / m_p on each)",
+                  where, count));
+  return fmt::format("force = {}\n",
+                     vec({b.force[0] * count, b.force[1] * count, b.force[2] * count}));
+}
+
+//! The keys of a surface_collider.
+std::string collider_keys(const PhysGaussianParams& p, const PhysGaussianBoundary& b,
+                          const std::string& where, Notes& notes) {
+  const PgVec3 n = normalized(b.normal);
+  std::string e = fmt::format("point = {}\n", vec(b.point));
+  e += fmt::format("normal = {}\n", vec(n));
+  e += fmt::format("surface = {}\n", quoted(b.surface));
+  if (b.surface == "cut") {
+    // PhysGaussian's hard-coded cut: 0.4 <= z <= 0.53, velocity x 0.3 without its y part.
+    e += fmt::format("lo = {}\n", vec({0, 0, 0.4}));
+    e += fmt::format("hi = {}\n", vec({p.grid_lim, p.grid_lim, 0.53}));
+    e += "cut_scale = 0.3\n";
+    if (std::fabs(n[1]) != 1)
+      notes.push_back(
+          fmt::format("{}: surface \"cut\": gen4d removes the normal velocity {} in the cut "
+                      "(0.4 <= z <= 0.53), PhysGaussian the y component",
+                      where, vec(n)));
+  } else {
+    e += fmt::format("friction = {}\n", num(b.friction));
+  }
+  if (b.surface != "sticky" && b.surface != "cut")
+    notes.push_back(
+        fmt::format("{}: surface \"{}\" kept as written (PhysGaussian's collider zeroes the "
+                    "velocity of every node behind it)",
+                    where, b.surface));
+  return e;
+}
+
+//! The keys of a release_particles_sequentially.
+std::string release_keys(const PhysGaussianBoundary& b, const std::string& where, Notes& notes) {
+  const int axis = b.normal[0] != 0 ? 0 : b.normal[1] != 0 ? 1 : 2;
+  PgVec3 n{0, 0, 0};
+  n[axis] = b.end_position > b.start_position ? 1 : -1;
+  notes.push_back(
+      fmt::format("{}: release over the object's extent along {} in {} layers, layer k at "
+                  "start + (end - start) k / layers (PhysGaussian: 50 layers over "
+                  "|x - end_position| < |start_position - end_position|, layer i at "
+                  "end_time (i + 1) / 50)",
+                  where, vec(n), b.num_layers));
+  return fmt::format("normal = {}\n", vec(n)) + fmt::format("layers = {}\n", b.num_layers);
+}
+
+//! The keys of an enforce_particle_velocity_rotation.
+std::string rotation_keys(const PhysGaussianBoundary& b) {
+  const PgVec3 n = normalized(b.normal);
+  std::string e = fmt::format("point = {}\n", vec(b.point));
+  e += fmt::format("normal = {}\n", vec(n));
+  e += fmt::format("half_height = {}\n", num(b.half_height_and_radius[0]));
+  e += fmt::format("radius = {}\n", num(b.half_height_and_radius[1]));
+  e += fmt::format(
+      "angular_velocity = {}\n",
+      vec({-b.rotation_scale * n[0], -b.rotation_scale * n[1], -b.rotation_scale * n[2]}));
+  e += fmt::format("velocity = {}\n", vec({b.translation_scale * n[0], b.translation_scale * n[1],
+                                           b.translation_scale * n[2]}));
+  return e;
+}
+
+//! The [[boundary]] entry of boundary_conditions[i]; "" when it never acts.
+std::string boundary_entry(const PhysGaussianParams& p, const PhysGaussianPreprocessed& pre,
+                           std::size_t i, Notes& notes) {
+  const PhysGaussianBoundary& b = p.boundary_conditions[i];
+  const std::string where = fmt::format("boundary_conditions[{}] (line {})", i, b.line);
+  double start = std::max(0.0, b.start_time), end = b.end_time;
+  if (b.type == "particle_impulse") end = b.start_time + b.num_dt * p.substep_dt;
+  if (b.type == "bounding_box") return "\n[[boundary]]\ntype = \"bounding_box\"\n";
+  if (!(end > start)) {
+    notes.push_back(fmt::format("{}: {} never acts (end {} <= start {}); left out", where, b.type,
+                                num(end), num(start)));
+    return "";
+  }
+  std::string e = "\n[[boundary]]\n";
+  e += fmt::format("type = {}\n", quoted(b.type));
+  if (b.type == "cuboid" || b.type == "particle_impulse" ||
+      b.type == "enforce_particle_translation") {
+    e += fmt::format("lo = {}\n", vec(add(b.point, b.size, -1)));
+    e += fmt::format("hi = {}\n", vec(add(b.point, b.size, 1)));
+  }
+  if (b.type == "cuboid") e += cuboid_keys(p, b, where, start, notes);
+  if (b.type == "enforce_particle_translation")
+    e += fmt::format("velocity = {}\n", vec(b.velocity));
+  if (b.type == "particle_impulse") {
+    const std::string force = impulse_keys(b, pre, where, notes);
+    if (force.empty()) return "";
+    e += force;
+  }
+  if (b.type == "surface_collider") e += collider_keys(p, b, where, notes);
+  if (b.type == "release_particles_sequentially") e += release_keys(b, where, notes);
+  if (b.type == "enforce_particle_velocity_rotation") e += rotation_keys(b);
+  e += fmt::format("start = {}\n", num(start));
+  e += fmt::format("end = {}\n", num(end));
+  return e;
+}
+
+//! Every [[boundary]] entry.
+std::string deck_boundaries(const PhysGaussianParams& p, const PhysGaussianPreprocessed& pre,
+                            Notes& notes) {
+  std::string d;
   bool selection_note = false;
   for (std::size_t i = 0; i < p.boundary_conditions.size(); ++i) {
-    const PhysGaussianBoundary& b = p.boundary_conditions[i];
-    const std::string where = fmt::format("boundary_conditions[{}] (line {})", i, b.line);
-    double start = std::max(0.0, b.start_time), end = b.end_time;
-    if (b.type == "particle_impulse") end = b.start_time + b.num_dt * p.substep_dt;
-    if (b.type == "bounding_box") {
-      d += "\n[[boundary]]\ntype = \"bounding_box\"\n";
-      continue;
-    }
-    if (!(end > start)) {
-      note(fmt::format("{}: {} never acts (end {} <= start {}); left out", where, b.type, num(end),
-                       num(start)));
-      continue;
-    }
-    std::string e = "\n[[boundary]]\n";
-    e += fmt::format("type = {}\n", quoted(b.type));
-    if (b.type == "cuboid" || b.type == "particle_impulse" ||
-        b.type == "enforce_particle_translation") {
-      e += fmt::format("lo = {}\n", vec(add(b.point, b.size, -1)));
-      e += fmt::format("hi = {}\n", vec(add(b.point, b.size, 1)));
-    }
-    if (b.type == "cuboid") {
-      e += fmt::format("velocity = {}\n", vec(b.velocity));
-      if (nonzero(b.velocity)) e += "motion = \"moving\"\n";
-      if (b.reset == 1) {
-        e += fmt::format("reset_duration = {}\n", num(15 * p.substep_dt));
-        if (start > 0)
-          note(
-              fmt::format("{}: reset = 1 zeroes the grid for 15 substeps after end_time; "
-                          "PhysGaussian also zeroes it before start_time ({}), gen4d does not",
-                          where, num(start)));
-      }
-    }
-    if (b.type == "enforce_particle_translation")
-      e += fmt::format("velocity = {}\n", vec(b.velocity));
-    if (b.type == "particle_impulse") {
-      long count = 0;
-      for (std::size_t k = 0; k < pre.selected.size(); ++k) {
-        bool in = true;
-        for (int a = 0; a < 3; ++a)
-          in = in && std::fabs(pre.selected.position[3 * k + a] - b.point[a]) < b.size[a];
-        count += in;
-      }
-      if (count == 0) {
-        note(fmt::format("{}: particle_impulse selects no Gaussian; left out", where));
-        continue;
-      }
-      e += fmt::format("force = {}\n",
-                       vec({b.force[0] * count, b.force[1] * count, b.force[2] * count}));
-      note(
-          fmt::format("{}: particle_impulse force per particle x {} Gaussians in the box = total "
-                      "force shared by mass (PhysGaussian: force / m_p on each)",
-                      where, count));
-    }
-    if (b.type == "surface_collider") {
-      const PgVec3 n = normalized(b.normal);
-      e += fmt::format("point = {}\n", vec(b.point));
-      e += fmt::format("normal = {}\n", vec(n));
-      e += fmt::format("surface = {}\n", quoted(b.surface));
-      if (b.surface == "cut") {
-        // PhysGaussian's hard-coded cut: 0.4 <= z <= 0.53, velocity x 0.3 without its y part.
-        e += fmt::format("lo = {}\n", vec({0, 0, 0.4}));
-        e += fmt::format("hi = {}\n", vec({p.grid_lim, p.grid_lim, 0.53}));
-        e += "cut_scale = 0.3\n";
-        if (std::fabs(n[1]) != 1)
-          note(
-              fmt::format("{}: surface \"cut\": gen4d removes the normal velocity {} in the cut "
-                          "(0.4 <= z <= 0.53), PhysGaussian the y component",
-                          where, vec(n)));
-      } else {
-        e += fmt::format("friction = {}\n", num(b.friction));
-      }
-      if (b.surface != "sticky" && b.surface != "cut")
-        note(
-            fmt::format("{}: surface \"{}\" kept as written (PhysGaussian's collider zeroes the "
-                        "velocity of every node behind it)",
-                        where, b.surface));
-    }
-    if (b.type == "release_particles_sequentially") {
-      const int axis = b.normal[0] != 0 ? 0 : b.normal[1] != 0 ? 1 : 2;
-      PgVec3 n{0, 0, 0};
-      n[axis] = b.end_position > b.start_position ? 1 : -1;
-      e += fmt::format("normal = {}\n", vec(n));
-      e += fmt::format("layers = {}\n", b.num_layers);
-      note(
-          fmt::format("{}: release over the object's extent along {} in {} layers, layer k at "
-                      "start + (end - start) k / layers (PhysGaussian: 50 layers over "
-                      "|x - end_position| < |start_position - end_position|, layer i at "
-                      "end_time (i + 1) / 50)",
-                      where, vec(n), b.num_layers));
-    }
-    if (b.type == "enforce_particle_velocity_rotation") {
-      const PgVec3 n = normalized(b.normal);
-      e += fmt::format("point = {}\n", vec(b.point));
-      e += fmt::format("normal = {}\n", vec(n));
-      e += fmt::format("half_height = {}\n", num(b.half_height_and_radius[0]));
-      e += fmt::format("radius = {}\n", num(b.half_height_and_radius[1]));
-      e += fmt::format(
-          "angular_velocity = {}\n",
-          vec({-b.rotation_scale * n[0], -b.rotation_scale * n[1], -b.rotation_scale * n[2]}));
-      e += fmt::format("velocity = {}\n",
-                       vec({b.translation_scale * n[0], b.translation_scale * n[1],
-                            b.translation_scale * n[2]}));
-    }
-    if (b.type == "particle_impulse" || b.type == "enforce_particle_translation" ||
-        b.type == "enforce_particle_velocity_rotation")
+    const std::string e = boundary_entry(p, pre, i, notes);
+    if (e.empty()) continue;
+    const std::string& type = p.boundary_conditions[i].type;
+    if (type == "particle_impulse" || type == "enforce_particle_translation" ||
+        type == "enforce_particle_velocity_rotation")
       selection_note = true;
-    e += fmt::format("start = {}\n", num(start));
-    e += fmt::format("end = {}\n", num(end));
     d += e;
   }
   if (selection_note)
-    note(
+    notes.push_back(
         "particle conditions: PhysGaussian selects their particles once at rest, gen4d at "
         "every substep");
+  return d;
+}
 
-  // Images and camera.
+//! The [render] keys of PhysGaussian's orbit camera, carried to the simulation space.
+std::string orbit_keys(const PhysGaussianParams& p, const PhysGaussianSimMap& map,
+                       const std::vector<Camera>& cams, Notes& notes) {
+  const double s = map.scale;
+  const PgVec3 up = normalized(p.mpm_space_vertical_upward_axis);
+  // PhysGaussian's frame in the trained space, carried to the simulation space.
+  const PgVec3 vw = mat_tvec(map.rotation, up);
+  PgVec3 h1{1, 1, 1};
+  if (std::fabs(dot(h1, vw)) < 0.01) h1 = {0.72, 0.37, -0.67};
+  h1 = normalized(add(h1, vw, -dot(h1, vw)));
+  const PgVec3 h1s = mat_vec(map.rotation, h1);
+  // gen4d's orbit frame (OrbitCamera::at_frame).
+  const PgVec3 a = std::fabs(up[0]) > 0.9 ? PgVec3{0, 1, 0} : PgVec3{1, 0, 0};
+  const PgVec3 e1 = normalized(add(a, up, -dot(a, up)));
+  const PgVec3 e2 = cross(up, e1);
+  const double phi0 = std::atan2(dot(h1s, e2), dot(h1s, e1)) * 180 / kPi;
+  double az = phi0 - *p.init_azimuthm, el = *p.init_elevation, rad = s * *p.init_radius;
+  double daz = 0, del = 0, drad = 0;
+  if (p.move_camera) {
+    daz = -*p.delta_a;
+    del = *p.delta_e;
+    drad = s * *p.delta_r;
+    az -= daz;
+    el -= del;
+    rad -= drad;
+  }
+  if (!(el > -90 && el < 90))
+    fail_key(p, "init_elevation",
+             fmt::format("the orbit's elevation {} is outside (-90, 90)", num(el)));
+  if (!(rad > 0)) fail_key(p, "init_radius", "the orbit's radius must be > 0");
+  std::string r = "camera = \"orbit\"\n";
+  r += fmt::format("center = {}\n", vec(p.mpm_space_viewpoint_center));
+  r += fmt::format("up = {}\n", vec(p.mpm_space_vertical_upward_axis));
+  r += fmt::format("azimuth = {}\n", num(az));
+  r += fmt::format("elevation = {}\n", num(el));
+  r += fmt::format("radius = {}\n", num(rad));
+  if (p.move_camera) {
+    r += fmt::format("d_azimuth = {}\n", num(daz));
+    r += fmt::format("d_elevation = {}\n", num(del));
+    r += fmt::format("d_radius = {}\n", num(drad));
+  }
+  if (cams.empty()) {
+    notes.push_back(
+        "camera: PhysGaussian's orbit in the simulation space (its field of view and image "
+        "size come from cameras.json, which the model lacks: gen4d's defaults apply)");
+    return r;
+  }
+  // get_camera_view replaces the pose of cameras.json's first entry and keeps the rest.
+  const Camera& c0 = cams.front();
+  r += fmt::format("width = {}\nheight = {}\n", c0.width, c0.height);
+  r += fmt::format("fov_y = {}\n", num(c0.fov_y() * 180 / kPi));
+  notes.push_back(fmt::format(
+      "camera: PhysGaussian's orbit in the simulation space, with the image size {} x {} and "
+      "vertical field of view of cameras.json's first entry",
+      c0.width, c0.height));
+  if (std::fabs(c0.fx - c0.fy) > 1e-6 * c0.fy)
+    notes.push_back(
+        fmt::format("camera: cameras.json's fx {} differs from fy {}; gen4d's orbit has "
+                    "square pixels (fx = fy)",
+                    num(c0.fx), num(c0.fy)));
+  return r;
+}
+
+//! [render]: gs_simulation.py's images, video rate, scenery and camera.
+std::string deck_render(const PhysGaussianParams& p, const PhysGaussianPreprocessed& pre,
+                        PlySpace space, const PhysGaussianDeckFiles* files, Notes& notes) {
   std::string r = "\n[render]\nlayout = \"physgaussian\"\nbackground = [0, 0, 0]\n";
-  note(
+  notes.push_back(
       "render: gs_simulation.py's images (OUT/0000.png for the state after one frame, ...; "
       "with --mp4, OUT/output.mp4) on its default black background (--white_bg: set "
       "render.background = [1, 1, 1])");
@@ -1130,7 +1269,7 @@ std::string physgaussian_to_deck(const PhysGaussianParams& p, const std::string&
   if (rate >= 1 && rate <= 1000)
     r += fmt::format("fps = {}\n", num(rate));
   else
-    note(
+    notes.push_back(
         fmt::format("frame_dt = {}: PhysGaussian's video rate int(1 / frame_dt) = {} is not "
                     "usable; gen4d's default video rate applies",
                     num(p.frame_dt), num(rate)));
@@ -1138,84 +1277,46 @@ std::string physgaussian_to_deck(const PhysGaussianParams& p, const std::string&
     r += fmt::format("scenery = {}\n", quoted(files->scenery_ply));
   const std::vector<Camera> no_cameras;
   const std::vector<Camera>& cams = files ? files->cameras : no_cameras;
-  if (p.default_camera_index < 0 && p.init_azimuthm && p.init_elevation && p.init_radius) {
-    const PgVec3 up = normalized(p.mpm_space_vertical_upward_axis);
-    // PhysGaussian's frame in the trained space, carried to the simulation space.
-    const PgVec3 vw = mat_tvec(map.rotation, up);
-    PgVec3 h1{1, 1, 1};
-    if (std::fabs(dot(h1, vw)) < 0.01) h1 = {0.72, 0.37, -0.67};
-    h1 = normalized(add(h1, vw, -dot(h1, vw)));
-    const PgVec3 h1s = mat_vec(map.rotation, h1);
-    // gen4d's orbit frame (OrbitCamera::at_frame).
-    const PgVec3 a = std::fabs(up[0]) > 0.9 ? PgVec3{0, 1, 0} : PgVec3{1, 0, 0};
-    const PgVec3 e1 = normalized(add(a, up, -dot(a, up)));
-    const PgVec3 e2 = cross(up, e1);
-    const double phi0 = std::atan2(dot(h1s, e2), dot(h1s, e1)) * 180 / kPi;
-    double az = phi0 - *p.init_azimuthm, el = *p.init_elevation, rad = s * *p.init_radius;
-    double daz = 0, del = 0, drad = 0;
-    if (p.move_camera) {
-      daz = -*p.delta_a;
-      del = *p.delta_e;
-      drad = s * *p.delta_r;
-      az -= daz;
-      el -= del;
-      rad -= drad;
-    }
-    if (!(el > -90 && el < 90))
-      fail("init_elevation", fmt::format("the orbit's elevation {} is outside (-90, 90)", num(el)));
-    if (!(rad > 0)) fail("init_radius", "the orbit's radius must be > 0");
-    r += "camera = \"orbit\"\n";
-    r += fmt::format("center = {}\n", vec(p.mpm_space_viewpoint_center));
-    r += fmt::format("up = {}\n", vec(p.mpm_space_vertical_upward_axis));
-    r += fmt::format("azimuth = {}\n", num(az));
-    r += fmt::format("elevation = {}\n", num(el));
-    r += fmt::format("radius = {}\n", num(rad));
-    if (p.move_camera) {
-      r += fmt::format("d_azimuth = {}\n", num(daz));
-      r += fmt::format("d_elevation = {}\n", num(del));
-      r += fmt::format("d_radius = {}\n", num(drad));
-    }
-    if (!cams.empty()) {
-      // get_camera_view replaces the pose of cameras.json's first entry and keeps the rest.
-      const Camera& c0 = cams.front();
-      r += fmt::format("width = {}\nheight = {}\n", c0.width, c0.height);
-      r += fmt::format("fov_y = {}\n", num(c0.fov_y() * 180 / kPi));
-      note(fmt::format(
-          "camera: PhysGaussian's orbit in the simulation space, with the image size {} x {} and "
-          "vertical field of view of cameras.json's first entry",
-          c0.width, c0.height));
-      if (std::fabs(c0.fx - c0.fy) > 1e-6 * c0.fy)
-        note(
-            fmt::format("camera: cameras.json's fx {} differs from fy {}; gen4d's orbit has "
-                        "square pixels (fx = fy)",
-                        num(c0.fx), num(c0.fy)));
-    } else {
-      note(
-          "camera: PhysGaussian's orbit in the simulation space (its field of view and image "
-          "size come from cameras.json, which the model lacks: gen4d's defaults apply)");
-    }
-  } else if (p.default_camera_index >= 0 && files && !files->cameras_json.empty() &&
-             !cams.empty()) {
+  if (p.default_camera_index < 0 && p.init_azimuthm && p.init_elevation && p.init_radius)
+    return r + orbit_keys(p, pre.map, cams, notes);
+  if (p.default_camera_index >= 0 && files && !files->cameras_json.empty() && !cams.empty()) {
     if (static_cast<std::size_t>(p.default_camera_index) >= cams.size())
-      fail("default_camera_index", fmt::format("{} is beyond the model's cameras.json ({} entries)",
-                                               p.default_camera_index, cams.size()));
+      fail_key(p, "default_camera_index",
+               fmt::format("{} is beyond the model's cameras.json ({} entries)",
+                           p.default_camera_index, cams.size()));
     r += fmt::format("camera = {}\n",
                      quoted(fmt::format("{}:{}", files->cameras_json, p.default_camera_index)));
-    note(fmt::format(
+    notes.push_back(fmt::format(
         "default_camera_index = {}: cameras.json's view carried into the simulation space "
         "({}; image size and focal lengths kept). gen4d culls splats nearer than 0.2 to the "
         "camera in simulation units, PhysGaussian in trained units (scale {})",
-        p.default_camera_index, files->cameras_json, num(s)));
-  } else {
-    r += "camera = \"auto\"\n";
-    note(fmt::format("default_camera_index = {}: {}; the deck's camera frames the object",
-                     p.default_camera_index,
-                     p.default_camera_index >= 0
-                         ? "the model has no cameras.json"
-                         : "init_azimuthm, init_elevation or init_radius missing"));
+        p.default_camera_index, files->cameras_json, num(pre.map.scale)));
+    return r;
   }
-  d += r;
-  if (p.show_hint) note("show_hint: PhysGaussian prints the camera and exits; ignored");
+  r += "camera = \"auto\"\n";
+  notes.push_back(fmt::format(
+      "default_camera_index = {}: {}; the deck's camera frames the object", p.default_camera_index,
+      p.default_camera_index >= 0 ? "the model has no cameras.json"
+                                  : "init_azimuthm, init_elevation or init_radius missing"));
+  return r;
+}
+
+}  // namespace
+
+std::string physgaussian_to_deck(const PhysGaussianParams& p, const std::string& ply_path,
+                                 const PhysGaussianPreprocessed& pre, PlySpace space,
+                                 std::vector<std::string>* notes_out,
+                                 const PhysGaussianDeckFiles* files) {
+  if (p.frame_num < 1) fail_key(p, "frame_num", "must be >= 1 for a run (nothing to simulate)");
+  Notes notes;
+  std::string d = deck_object(p, ply_path, pre, space, files, notes);
+  d += deck_materials(p, notes);
+  const std::string damping = deck_damping(p, notes);
+  note_filling(p, notes);
+  d += deck_solver(p, damping, notes);
+  d += deck_boundaries(p, pre, notes);
+  d += deck_render(p, pre, space, files, notes);
+  if (p.show_hint) notes.push_back("show_hint: PhysGaussian prints the camera and exits; ignored");
   if (notes_out) *notes_out = std::move(notes);
   return d;
 }

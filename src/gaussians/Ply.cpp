@@ -1,7 +1,5 @@
 #include "gaussians/Ply.hpp"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <cerrno>
 #include <charconv>
@@ -14,6 +12,7 @@
 #include <string_view>
 
 #include "core/Error.hpp"
+#include "io/AtomicFile.hpp"
 
 namespace gen4d::gaussians {
 
@@ -378,24 +377,7 @@ void write_splats_ply(const std::string& path, const SplatSet& splats) {
     }
   }
 
-  const fs::path final_path(path);
-  const std::string temp = (final_path.parent_path() / ("." + final_path.filename().string() + "." +
-                                                        std::to_string(::getpid()) + ".tmp"))
-                               .string();
-  std::FILE* file = std::fopen(temp.c_str(), "wb");
-  if (file == nullptr)
-    throw RuntimeError(path + ": cannot create " + temp + ": " + std::strerror(errno));
-  const bool written = std::fwrite(bytes.data(), 1, bytes.size(), file) == bytes.size();
-  const bool closed = std::fclose(file) == 0;
-  if (!written || !closed) {
-    std::remove(temp.c_str());
-    throw RuntimeError(path + ": cannot write " + temp + " (disk full?)");
-  }
-  if (std::rename(temp.c_str(), path.c_str()) != 0) {
-    const std::string why = std::strerror(errno);
-    std::remove(temp.c_str());
-    throw RuntimeError(path + ": cannot rename " + temp + " into place: " + why);
-  }
+  io::write_atomically(path, std::string_view(bytes.data(), bytes.size()), true);
 }
 
 }  // namespace gen4d::gaussians

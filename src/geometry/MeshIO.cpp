@@ -16,70 +16,16 @@
 #include <sstream>
 
 #include "core/Error.hpp"
+#include "core/TextFile.hpp"
 #include "geometry/Mesh.hpp"
 
 namespace gen4d::geometry {
 namespace {
 
-std::string read_file_bytes(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw InputError(fmt::format("{}: is a directory, not a mesh file", path));
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(fmt::format("{}: cannot open mesh file", path));
-  std::ostringstream buf;
-  buf << in.rdbuf();
-  if (in.bad()) throw InputError(fmt::format("{}: read error", path));
-  return buf.str();
-}
-
-// Quotes a token from the file for an error message: short and printable, so the message
-// stays one readable line whatever the file holds.
-std::string quote_token(const std::string& token) {
-  std::string out = token.substr(0, 40);
-  for (char& c : out)
-    if (!std::isprint(static_cast<unsigned char>(c))) c = '?';
-  return "'" + out + (token.size() > 40 ? "...'" : "'");
-}
-
-std::vector<std::string> split_whitespace(const std::string& line) {
-  std::vector<std::string> tokens;
-  std::istringstream in(line);
-  std::string t;
-  while (in >> t) tokens.push_back(t);
-  return tokens;
-}
-
 // Parses a whole token as a finite double; returns false otherwise.
 bool parse_finite(const std::string& token, double& value) {
-  const char* begin = token.c_str();
-  char* end = nullptr;
-  errno = 0;
-  value = std::strtod(begin, &end);
-  return end != begin && *end == '\0' && errno != ERANGE && std::isfinite(value);
+  return parse_double(token, value) && std::isfinite(value);
 }
-
-// Line splitter that tolerates CRLF and a missing final newline.
-class LineReader {
- public:
-  explicit LineReader(const std::string& text) : text_(text) {}
-  bool next(std::string& line) {
-    if (pos_ >= text_.size()) return false;
-    std::size_t end = text_.find('\n', pos_);
-    if (end == std::string::npos) end = text_.size();
-    line.assign(text_, pos_, end - pos_);
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    pos_ = end + 1;
-    ++number_;
-    return true;
-  }
-  long number() const { return number_; }
-
- private:
-  const std::string& text_;
-  std::size_t pos_ = 0;
-  long number_ = 0;
-};
 
 struct ObjState {
   const std::string& path;
@@ -235,7 +181,7 @@ Mesh parse_ascii_stl(const std::string& path, const std::string& bytes) {
 }  // namespace
 
 Mesh read_obj(const std::string& path) {
-  const std::string text = read_file_bytes(path);
+  const std::string text = read_whole_file(path, "mesh file");
   ObjState st{path, {}, 0, 0};
   LineReader lines(text);
   std::string line;
@@ -259,7 +205,7 @@ Mesh read_obj(const std::string& path) {
 }
 
 Mesh read_stl(const std::string& path) {
-  const std::string bytes = read_file_bytes(path);
+  const std::string bytes = read_whole_file(path, "mesh file");
   if (bytes.empty()) throw InputError(fmt::format("{}: empty STL file", path));
   Mesh mesh;
   bool binary = false;

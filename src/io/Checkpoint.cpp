@@ -73,20 +73,8 @@ void write_contents(hid_t file, const CheckpointState& s) {
 
 //! Rejects files that are not gen4d checkpoints of this version; returns the node dims.
 std::array<long, 3> check_layout(hid_t file, const std::string& path) {
-  if (!h5::has_attr(file, "format")) {
-    throw InputError(path + ": not a gen4d checkpoint (no 'format' attribute)");
-  }
-  const std::string format = h5::read_string_attr(file, "format", path);
-  if (format != kCheckpointFormat) {
-    throw InputError(path + ": not a gen4d checkpoint (format is '" + format + "', expected '" +
-                     kCheckpointFormat + "')");
-  }
-  const long version = h5::read_long_attr(file, "format_version", path);
-  if (version != kCheckpointFormatVersion) {
-    throw InputError(path + ": checkpoint format_version " + std::to_string(version) +
-                     " is not supported (expected " + std::to_string(kCheckpointFormatVersion) +
-                     ")");
-  }
+  h5::check_format(file, path, "checkpoint", kCheckpointFormat, kCheckpointFormatVersion,
+                   kCheckpointFormatVersion);
   const std::array<long, 3> dims = h5::read_long3_attr(file, "node_dims", path);
   for (long n : dims) {
     if (n < 1) throw InputError(path + ": node_dims must be positive");

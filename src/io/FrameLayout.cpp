@@ -44,18 +44,8 @@ void write_grid_meta(hid_t file, const GridMeta& meta) {
 }
 
 GridMeta read_grid_meta(hid_t file, const std::string& file_name) {
-  if (!h5::has_attr(file, "format")) {
-    throw InputError(file_name + ": not a gen4d frames file (no 'format' attribute)");
-  }
-  std::string format = h5::read_string_attr(file, "format", file_name);
-  if (format != kFramesFormat) {
-    throw InputError(file_name + ": format is '" + format + "', expected '" + kFramesFormat + "'");
-  }
-  long version = h5::read_long_attr(file, "format_version", file_name);
-  if (version != kFramesFormatVersion) {
-    throw InputError(file_name + ": format_version " + std::to_string(version) +
-                     " is not supported (expected " + std::to_string(kFramesFormatVersion) + ")");
-  }
+  h5::check_format(file, file_name, "frames file", kFramesFormat, kFramesFormatVersion,
+                   kFramesFormatVersion);
   GridMeta meta;
   meta.node_dims = h5::read_long3_attr(file, "node_dims", file_name);
   for (long n : meta.node_dims) {

@@ -35,4 +35,26 @@ inline std::array<long, 3> cell_dims(const std::array<long, 3>& node_dims) {
   return {node_dims[0] - 1, node_dims[1] - 1, node_dims[2] - 1};
 }
 
+//! The global index of node `n` on a grid of `node_dims` nodes (x fastest).
+inline long node_index(const std::array<long, 3>& n, const std::array<long, 3>& node_dims) {
+  return (n[2] * node_dims[1] + n[1]) * node_dims[0] + n[0];
+}
+
+//! The node indices of the face of `cell` normal to `axis` on its low (side 0) or high (side 1)
+//! end, ordered so that the right-hand normal points out of the cell.
+inline std::array<long, 4> cell_face_nodes(const std::array<long, 3>& cell, int axis, int side,
+                                           const std::array<long, 3>& node_dims) {
+  const long corner[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  const int b = (axis + 1) % 3, c = (axis + 2) % 3;  // b x c = axis: this order faces +axis
+  std::array<long, 4> quad{};
+  for (int q = 0; q < 4; ++q) {
+    std::array<long, 3> n = cell;
+    n[axis] += side;
+    n[b] += corner[q][0];
+    n[c] += corner[q][1];
+    quad[side ? q : 3 - q] = node_index(n, node_dims);
+  }
+  return quad;
+}
+
 }  // namespace gen4d::io

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <sstream>
+#include <type_traits>
 
 #include "core/Error.hpp"
 
@@ -214,6 +215,25 @@ bool has_attr(hid_t obj, const std::string& name) {
   return H5Aexists(obj, name.c_str()) > 0;
 }
 
+long check_format(hid_t file, const std::string& path, const std::string& kind,
+                  const std::string& format, long min_version, long max_version) {
+  if (!has_attr(file, "format"))
+    throw InputError(path + ": not a gen4d " + kind + " (no 'format' attribute)");
+  const std::string found = read_string_attr(file, "format", path);
+  if (found != format)
+    throw InputError(path + ": not a gen4d " + kind + " (format is '" + found + "', expected '" +
+                     format + "')");
+  const long version = read_long_attr(file, "format_version", path);
+  if (version < min_version || version > max_version) {
+    const std::string expected = min_version == max_version ? std::to_string(max_version)
+                                                            : std::to_string(min_version) + " to " +
+                                                                  std::to_string(max_version);
+    throw InputError(path + ": " + kind + " format_version " + std::to_string(version) +
+                     " is not supported (expected " + expected + ")");
+  }
+  return version;
+}
+
 std::vector<std::string> attr_names(hid_t obj) {
   std::vector<std::string> names;
   auto collect = [](hid_t, const char* name, const H5A_info_t*, void* out) -> herr_t {
@@ -253,37 +273,34 @@ std::string read_string_attr(hid_t obj, const std::string& name, const std::stri
   return buffer.substr(0, buffer.find('\0'));
 }
 
-double read_double_attr(hid_t obj, const std::string& name, const std::string& file) {
-  Handle attr = open_numeric_attr(obj, name, 1, false, file);
-  double value = 0;
-  check(H5Aread(attr.get(), H5T_NATIVE_DOUBLE, &value), Failure::Input,
-        file + ": cannot read attribute '" + name + "'");
+namespace {
+//! N values of a long or double attribute.
+template <class T, std::size_t N>
+std::array<T, N> read_numeric_attr(hid_t obj, const std::string& name, const std::string& file) {
+  constexpr bool integer = std::is_same_v<T, long>;
+  Handle attr = open_numeric_attr(obj, name, static_cast<hssize_t>(N), integer, file);
+  std::array<T, N> value{};
+  check(H5Aread(attr.get(), integer ? H5T_NATIVE_LONG : H5T_NATIVE_DOUBLE, value.data()),
+        Failure::Input, file + ": cannot read attribute '" + name + "'");
   return value;
+}
+}  // namespace
+
+double read_double_attr(hid_t obj, const std::string& name, const std::string& file) {
+  return read_numeric_attr<double, 1>(obj, name, file)[0];
 }
 
 long read_long_attr(hid_t obj, const std::string& name, const std::string& file) {
-  Handle attr = open_numeric_attr(obj, name, 1, true, file);
-  long value = 0;
-  check(H5Aread(attr.get(), H5T_NATIVE_LONG, &value), Failure::Input,
-        file + ": cannot read attribute '" + name + "'");
-  return value;
+  return read_numeric_attr<long, 1>(obj, name, file)[0];
 }
 
 std::array<long, 3> read_long3_attr(hid_t obj, const std::string& name, const std::string& file) {
-  Handle attr = open_numeric_attr(obj, name, 3, true, file);
-  std::array<long, 3> value{};
-  check(H5Aread(attr.get(), H5T_NATIVE_LONG, value.data()), Failure::Input,
-        file + ": cannot read attribute '" + name + "'");
-  return value;
+  return read_numeric_attr<long, 3>(obj, name, file);
 }
 
 std::array<double, 3> read_double3_attr(hid_t obj, const std::string& name,
                                         const std::string& file) {
-  Handle attr = open_numeric_attr(obj, name, 3, false, file);
-  std::array<double, 3> value{};
-  check(H5Aread(attr.get(), H5T_NATIVE_DOUBLE, value.data()), Failure::Input,
-        file + ": cannot read attribute '" + name + "'");
-  return value;
+  return read_numeric_attr<double, 3>(obj, name, file);
 }
 
 std::vector<hsize_t> grid_shape(const std::array<long, 3>& dims, int components) {
@@ -293,14 +310,21 @@ std::vector<hsize_t> grid_shape(const std::array<long, 3>& dims, int components)
   return shape;
 }
 
-Handle create_grid_dataset(hid_t loc, const std::string& name, hid_t type,
-                           const std::array<long, 3>& dims, int components) {
-  std::vector<hsize_t> shape = grid_shape(dims, components);
+namespace {
+//! A dataset of `shape` (C order) at `name`. RuntimeError naming it.
+Handle create_dataset(hid_t loc, const std::string& name, hid_t type,
+                      const std::vector<hsize_t>& shape) {
   Handle space = checked(H5Screate_simple(static_cast<int>(shape.size()), shape.data(), nullptr),
                          H5Sclose, Failure::Runtime, "cannot describe dataset " + name);
   return checked(
       H5Dcreate2(loc, name.c_str(), type, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
       H5Dclose, Failure::Runtime, "cannot create dataset " + name);
+}
+}  // namespace
+
+Handle create_grid_dataset(hid_t loc, const std::string& name, hid_t type,
+                           const std::array<long, 3>& dims, int components) {
+  return create_dataset(loc, name, type, grid_shape(dims, components));
 }
 
 namespace {
@@ -334,21 +358,19 @@ Handle open_grid_dataset(hid_t loc, const std::string& path, H5T_class_t type_cl
 }
 
 namespace {
-//! File and memory selections of `box` in a grid dataset; an empty box selects nothing.
-std::pair<Handle, Handle> box_selection(hid_t dataset, const NodeBox& box, int components,
-                                        Failure kind, const std::string& what) {
+//! File and memory selections of the block at `start` of shape `count` in `dataset`; `empty`
+//! selects nothing.
+std::pair<Handle, Handle> block_selection(hid_t dataset, const std::vector<hsize_t>& start,
+                                          const std::vector<hsize_t>& count, bool empty,
+                                          Failure kind, const std::string& what) {
   Handle file_space = checked(H5Dget_space(dataset), H5Sclose, kind, what);
-  if (box.empty()) {
+  if (empty) {
     hsize_t one = 1;
     Handle mem_space = checked(H5Screate_simple(1, &one, nullptr), H5Sclose, kind, what);
     check(H5Sselect_none(file_space.get()), kind, what);
     check(H5Sselect_none(mem_space.get()), kind, what);
     return {std::move(file_space), std::move(mem_space)};
   }
-  std::vector<hsize_t> start{static_cast<hsize_t>(box.start[2]), static_cast<hsize_t>(box.start[1]),
-                             static_cast<hsize_t>(box.start[0])};
-  std::vector<hsize_t> count = grid_shape(box.count, components);
-  if (components > 1) start.push_back(0);
   check(H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(),
                             nullptr),
         kind, what);
@@ -356,6 +378,16 @@ std::pair<Handle, Handle> box_selection(hid_t dataset, const NodeBox& box, int c
       checked(H5Screate_simple(static_cast<int>(count.size()), count.data(), nullptr), H5Sclose,
               kind, what);
   return {std::move(file_space), std::move(mem_space)};
+}
+
+//! File and memory selections of `box` in a grid dataset; an empty box selects nothing.
+std::pair<Handle, Handle> box_selection(hid_t dataset, const NodeBox& box, int components,
+                                        Failure kind, const std::string& what) {
+  std::vector<hsize_t> start{static_cast<hsize_t>(box.start[2]), static_cast<hsize_t>(box.start[1]),
+                             static_cast<hsize_t>(box.start[0])};
+  if (components > 1) start.push_back(0);
+  return block_selection(dataset, start, grid_shape(box.count, components), box.empty(), kind,
+                         what);
 }
 }  // namespace
 
@@ -392,12 +424,7 @@ std::vector<hsize_t> rows_shape(hsize_t rows, int width) {
 
 Handle create_rows_dataset(hid_t loc, const std::string& name, hid_t type, hsize_t rows,
                            int width) {
-  std::vector<hsize_t> shape = rows_shape(rows, width);
-  Handle space = checked(H5Screate_simple(static_cast<int>(shape.size()), shape.data(), nullptr),
-                         H5Sclose, Failure::Runtime, "cannot describe dataset " + name);
-  return checked(
-      H5Dcreate2(loc, name.c_str(), type, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
-      H5Dclose, Failure::Runtime, "cannot create dataset " + name);
+  return create_dataset(loc, name, type, rows_shape(rows, width));
 }
 
 Handle open_rows_dataset(hid_t loc, const std::string& path, H5T_class_t type_class, hsize_t rows,
@@ -409,24 +436,9 @@ namespace {
 //! File and memory selections of rows [start, start + count); no rows selects nothing.
 std::pair<Handle, Handle> rows_selection(hid_t dataset, hsize_t start, hsize_t count, int width,
                                          Failure kind, const std::string& what) {
-  Handle file_space = checked(H5Dget_space(dataset), H5Sclose, kind, what);
-  if (count == 0) {
-    hsize_t one = 1;
-    Handle mem_space = checked(H5Screate_simple(1, &one, nullptr), H5Sclose, kind, what);
-    check(H5Sselect_none(file_space.get()), kind, what);
-    check(H5Sselect_none(mem_space.get()), kind, what);
-    return {std::move(file_space), std::move(mem_space)};
-  }
   std::vector<hsize_t> offset{start};
   if (width > 1) offset.push_back(0);
-  std::vector<hsize_t> shape = rows_shape(count, width);
-  check(H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, offset.data(), nullptr, shape.data(),
-                            nullptr),
-        kind, what);
-  Handle mem_space =
-      checked(H5Screate_simple(static_cast<int>(shape.size()), shape.data(), nullptr), H5Sclose,
-              kind, what);
-  return {std::move(file_space), std::move(mem_space)};
+  return block_selection(dataset, offset, rows_shape(count, width), count == 0, kind, what);
 }
 }  // namespace
 

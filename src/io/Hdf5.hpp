@@ -81,6 +81,11 @@ long read_long_attr(hid_t obj, const std::string& name, const std::string& file)
 std::array<long, 3> read_long3_attr(hid_t obj, const std::string& name, const std::string& file);
 std::array<double, 3> read_double3_attr(hid_t obj, const std::string& name,
                                         const std::string& file);
+//! Checks the `format` and `format_version` attributes of a gen4d file against `format` and
+//! min_version..max_version; returns the version. InputError "FILE: not a gen4d KIND (...)" or
+//! "FILE: KIND format_version N is not supported (expected ...)".
+long check_format(hid_t file, const std::string& path, const std::string& kind,
+                  const std::string& format, long min_version, long max_version);
 
 // Datasets over the global grid: C order [nz][ny][nx] plus a trailing [components] when > 1.
 std::vector<hsize_t> grid_shape(const std::array<long, 3>& dims, int components);

@@ -28,10 +28,6 @@ std::vector<Quad> boundary_faces(const std::array<long, 3>& nodes,
     }
     return occupancy[(c[2] * cells[1] + c[1]) * cells[0] + c[0]] != 0;
   };
-  auto node_id = [&](std::array<long, 3> n) {
-    return static_cast<std::size_t>((n[2] * nodes[1] + n[1]) * nodes[0] + n[0]);
-  };
-  const long corner[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
   std::vector<Quad> faces;
   for (long k = 0; k < cells[2]; ++k) {
     for (long j = 0; j < cells[1]; ++j) {
@@ -43,15 +39,9 @@ std::vector<Quad> boundary_faces(const std::array<long, 3>& nodes,
             std::array<long, 3> neighbour = cell;
             neighbour[a] += side ? 1 : -1;
             if (solid(neighbour)) continue;
-            const int b = (a + 1) % 3, c = (a + 2) % 3;  // b x c = a, so this order faces +a
+            const std::array<long, 4> face = cell_face_nodes(cell, a, side, nodes);
             Quad quad;
-            for (int q = 0; q < 4; ++q) {
-              std::array<long, 3> n = cell;
-              n[a] += side;
-              n[b] += corner[q][0];
-              n[c] += corner[q][1];
-              quad[side ? q : 3 - q] = node_id(n);
-            }
+            for (int q = 0; q < 4; ++q) quad[q] = static_cast<std::size_t>(face[q]);
             faces.push_back(quad);
           }
         }

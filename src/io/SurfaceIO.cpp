@@ -15,6 +15,8 @@
 #include <sstream>
 
 #include "core/Error.hpp"
+#include "io/AtomicFile.hpp"
+#include "core/TextFile.hpp"
 
 namespace gen4d::io {
 namespace fs = std::filesystem;
@@ -83,40 +85,6 @@ std::string obj_bytes(const SurfaceMesh& mesh) {
   return std::string(out.data(), out.size());
 }
 
-std::string read_bytes(const std::string& path) {
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) throw InputError(path + ": is a directory, not a surface file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open surface file");
-  std::ostringstream buf;
-  buf << in.rdbuf();
-  if (in.bad()) throw InputError(path + ": read error");
-  return buf.str();
-}
-
-std::string quote(const std::string& token) {
-  std::string out = token.substr(0, 40);
-  for (char& c : out)
-    if (!std::isprint(static_cast<unsigned char>(c))) c = '?';
-  return "'" + out + (token.size() > 40 ? "...'" : "'");
-}
-
-std::vector<std::string> split(const std::string& line) {
-  std::vector<std::string> tokens;
-  std::istringstream in(line);
-  std::string t;
-  while (in >> t) tokens.push_back(t);
-  return tokens;
-}
-
-bool parse_double(const std::string& token, double& value) {
-  const char* begin = token.c_str();
-  char* end = nullptr;
-  errno = 0;
-  value = std::strtod(begin, &end);
-  return end != begin && *end == '\0' && errno != ERANGE;
-}
-
 bool parse_long(const std::string& token, long& value) {
   const char* begin = token.c_str();
   char* end = nullptr;
@@ -129,58 +97,45 @@ bool parse_long(const std::string& token, long& value) {
 
 enum class PlyType { Int8, UInt8, Int16, UInt16, Int32, UInt32, Float32, Float64 };
 
+template <class T>
+double read_as_double(const char* p) {
+  return static_cast<double>(get_le<T>(p));
+}
+
+//! A PLY scalar type: its two names, its size and its little-endian reader.
+struct PlyTypeInfo {
+  PlyType type;
+  const char* names[2];
+  std::size_t size;
+  double (*read)(const char*);
+};
+
+//! In PlyType's order.
+const PlyTypeInfo kPlyTypes[] = {
+    {PlyType::Int8, {"char", "int8"}, 1, read_as_double<std::int8_t>},
+    {PlyType::UInt8, {"uchar", "uint8"}, 1, read_as_double<std::uint8_t>},
+    {PlyType::Int16, {"short", "int16"}, 2, read_as_double<std::int16_t>},
+    {PlyType::UInt16, {"ushort", "uint16"}, 2, read_as_double<std::uint16_t>},
+    {PlyType::Int32, {"int", "int32"}, 4, read_as_double<std::int32_t>},
+    {PlyType::UInt32, {"uint", "uint32"}, 4, read_as_double<std::uint32_t>},
+    {PlyType::Float32, {"float", "float32"}, 4, read_as_double<float>},
+    {PlyType::Float64, {"double", "float64"}, 8, read_as_double<double>}};
+
 bool ply_type(const std::string& name, PlyType& type) {
-  static const std::pair<const char*, PlyType> names[] = {
-      {"char", PlyType::Int8},      {"int8", PlyType::Int8},       {"uchar", PlyType::UInt8},
-      {"uint8", PlyType::UInt8},    {"short", PlyType::Int16},     {"int16", PlyType::Int16},
-      {"ushort", PlyType::UInt16},  {"uint16", PlyType::UInt16},   {"int", PlyType::Int32},
-      {"int32", PlyType::Int32},    {"uint", PlyType::UInt32},     {"uint32", PlyType::UInt32},
-      {"float", PlyType::Float32},  {"float32", PlyType::Float32}, {"double", PlyType::Float64},
-      {"float64", PlyType::Float64}};
-  for (const auto& [n, t] : names)
-    if (name == n) {
-      type = t;
+  for (const PlyTypeInfo& info : kPlyTypes)
+    if (name == info.names[0] || name == info.names[1]) {
+      type = info.type;
       return true;
     }
   return false;
 }
 
 std::size_t ply_size(PlyType t) {
-  switch (t) {
-    case PlyType::Int8:
-    case PlyType::UInt8:
-      return 1;
-    case PlyType::Int16:
-    case PlyType::UInt16:
-      return 2;
-    case PlyType::Int32:
-    case PlyType::UInt32:
-    case PlyType::Float32:
-      return 4;
-    default:
-      return 8;
-  }
+  return kPlyTypes[static_cast<int>(t)].size;
 }
 
 double ply_value(PlyType t, const char* p) {
-  switch (t) {
-    case PlyType::Int8:
-      return get_le<std::int8_t>(p);
-    case PlyType::UInt8:
-      return get_le<std::uint8_t>(p);
-    case PlyType::Int16:
-      return get_le<std::int16_t>(p);
-    case PlyType::UInt16:
-      return get_le<std::uint16_t>(p);
-    case PlyType::Int32:
-      return get_le<std::int32_t>(p);
-    case PlyType::UInt32:
-      return get_le<std::uint32_t>(p);
-    case PlyType::Float32:
-      return get_le<float>(p);
-    default:
-      return get_le<double>(p);
-  }
+  return kPlyTypes[static_cast<int>(t)].read(p);
 }
 
 struct PlyProperty {
@@ -215,7 +170,7 @@ class PlyCursor {
                          element.name));
       std::size_t end = bytes_.find('\n', pos_);
       if (end == std::string::npos) end = bytes_.size();
-      tokens_ = split(bytes_.substr(pos_, end - pos_));
+      tokens_ = split_whitespace(bytes_.substr(pos_, end - pos_));
       pos_ = end + 1;
       ++line_;
     }
@@ -231,9 +186,9 @@ class PlyCursor {
     if (next_token_ >= tokens_.size()) fail("too few values on the line");
     double v = 0;
     const std::string& token = tokens_[next_token_++];
-    if (!parse_double(token, v)) fail("not a number: " + quote(token));
+    if (!parse_double(token, v)) fail("not a number: " + quote_token(token));
     if ((type != PlyType::Float32 && type != PlyType::Float64) && v != std::floor(v))
-      fail("not an integer: " + quote(token));
+      fail("not an integer: " + quote_token(token));
     return v;
   }
   void end() {
@@ -285,54 +240,28 @@ std::string surface_bytes(const SurfaceMesh& mesh, SurfaceFormat format) {
 
 void write_surface(const std::string& path, const SurfaceMesh& mesh, SurfaceFormat format) {
   const std::string bytes = surface_bytes(mesh, format);
-  const fs::path final_path(path);
-  const std::string temp =
-      (final_path.parent_path() / ("." + final_path.filename().string() + ".tmp")).string();
-  std::FILE* file = std::fopen(temp.c_str(), "wb");
-  if (file == nullptr)
-    throw RuntimeError(path + ": cannot create " + temp + ": " + std::strerror(errno));
-  const bool written = std::fwrite(bytes.data(), 1, bytes.size(), file) == bytes.size();
-  const bool closed = std::fclose(file) == 0;
-  if (!written || !closed) {
-    std::remove(temp.c_str());
-    throw RuntimeError(path + ": cannot write the surface file (disk full?)");
-  }
-  if (std::rename(temp.c_str(), path.c_str()) != 0) {
-    const std::string why = std::strerror(errno);
-    std::remove(temp.c_str());
-    throw RuntimeError(path + ": cannot rename " + temp + ": " + why);
-  }
+  write_atomically(path, bytes);
 }
 
 SurfaceMesh read_ply(const std::string& path) {
-  const std::string bytes = read_bytes(path);
+  const std::string bytes = read_whole_file(path, "surface file");
   // Header: text lines up to "end_header".
-  std::size_t pos = 0;
-  long line_no = 0;
-  auto next_line = [&](std::string& line) {
-    if (pos >= bytes.size()) return false;
-    std::size_t end = bytes.find('\n', pos);
-    if (end == std::string::npos) end = bytes.size();
-    line.assign(bytes, pos, end - pos);
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    pos = end + 1;
-    ++line_no;
-    return true;
-  };
+  LineReader lines(bytes);
+
   auto header_error = [&](const std::string& message) {
-    return InputError(fmt::format("{}:{}: PLY header: {}", path, line_no, message));
+    // The first line's number even when the file is empty.
+    return InputError(
+        fmt::format("{}:{}: PLY header: {}", path, std::max(1L, lines.number()), message));
   };
   std::string line;
-  if (!next_line(line) || line != "ply") {
-    line_no = 1;
+  if (!lines.next(line) || line != "ply")
     throw header_error("not a PLY file (the first line must be 'ply')");
-  }
   SurfaceMesh mesh;
   bool binary = false, have_format = false;
   std::vector<PlyElement> elements;
   while (true) {
-    if (!next_line(line)) throw header_error("file ends before 'end_header'");
-    const auto t = split(line);
+    if (!lines.next(line)) throw header_error("file ends before 'end_header'");
+    const auto t = split_whitespace(line);
     if (t.empty()) continue;
     if (t[0] == "end_header") break;
     if (t[0] == "comment" || t[0] == "obj_info") {
@@ -346,7 +275,7 @@ SurfaceMesh read_ply(const std::string& path) {
       else if (t[1] == "binary_little_endian")
         binary = true;
       else
-        throw header_error("format " + quote(t[1]) +
+        throw header_error("format " + quote_token(t[1]) +
                            " is not supported (ascii or binary_little_endian)");
       have_format = true;
     } else if (t[0] == "element") {
@@ -360,10 +289,10 @@ SurfaceMesh read_ply(const std::string& path) {
       if (t.size() == 5 && t[1] == "list") {
         p.is_list = true;
         if (!ply_type(t[2], p.count_type) || !ply_type(t[3], p.type))
-          throw header_error("unknown type in " + quote(line));
+          throw header_error("unknown type in " + quote_token(line));
         p.name = t[4];
       } else if (t.size() == 3) {
-        if (!ply_type(t[1], p.type)) throw header_error("unknown type " + quote(t[1]));
+        if (!ply_type(t[1], p.type)) throw header_error("unknown type " + quote_token(t[1]));
         p.name = t[2];
       } else {
         throw header_error(
@@ -372,14 +301,14 @@ SurfaceMesh read_ply(const std::string& path) {
       }
       elements.back().properties.push_back(p);
     } else {
-      throw header_error("unknown header keyword " + quote(t[0]));
+      throw header_error("unknown header keyword " + quote_token(t[0]));
     }
   }
   if (!have_format) throw header_error("no 'format' line before 'end_header'");
 
   long vertex_count = -1;
   std::vector<std::vector<long>> polygons;
-  PlyCursor cursor(path, bytes, pos, binary, line_no);
+  PlyCursor cursor(path, bytes, lines.position(), binary, lines.number());
   for (const PlyElement& element : elements) {
     const bool is_vertex = element.name == "vertex", is_face = element.name == "face";
     int xyz[3] = {-1, -1, -1}, list = -1;
@@ -449,7 +378,7 @@ SurfaceMesh read_ply(const std::string& path) {
 }
 
 SurfaceMesh read_obj_surface(const std::string& path) {
-  const std::string bytes = read_bytes(path);
+  const std::string bytes = read_whole_file(path, "surface file");
   SurfaceMesh mesh;
   std::istringstream in(bytes);
   std::string line;
@@ -464,14 +393,14 @@ SurfaceMesh read_obj_surface(const std::string& path) {
       mesh.comments.push_back(line.size() > 2 ? line.substr(2) : "");
       continue;
     }
-    const auto t = split(line);
+    const auto t = split_whitespace(line);
     if (t.empty()) continue;
     if (t[0] == "v") {
       if (t.size() < 4) fail("a vertex needs 3 coordinates");
       for (int a = 1; a <= 3; ++a) {
         double v = 0;
         if (!parse_double(t[a], v) || !std::isfinite(v))
-          fail("vertex coordinate " + quote(t[a]) + " is not a finite number");
+          fail("vertex coordinate " + quote_token(t[a]) + " is not a finite number");
         mesh.xyz.push_back(v);
       }
     } else if (t[0] == "f") {
@@ -481,7 +410,8 @@ SurfaceMesh read_obj_surface(const std::string& path) {
       for (std::size_t c = 1; c < t.size(); ++c) {
         long v = 0;
         const std::string first = t[c].substr(0, t[c].find('/'));
-        if (!parse_long(first, v) || v == 0) fail("face index " + quote(t[c]) + " is invalid");
+        if (!parse_long(first, v) || v == 0)
+          fail("face index " + quote_token(t[c]) + " is invalid");
         const long id = v > 0 ? v - 1 : n + v;
         if (id < 0 || id >= n)
           fail(fmt::format("face index {} out of range ({} vertices so far)", v, n));

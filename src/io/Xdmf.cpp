@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/Error.hpp"
+#include "io/AtomicFile.hpp"
 
 namespace gen4d::io {
 namespace {
@@ -114,20 +115,8 @@ std::string xdmf_text(const std::string& h5_name, const std::array<long, 3>& nod
 }
 
 void write_text_atomically(const std::string& path, const std::string& text) {
-  const std::string temp = path + ".tmp";
-  {
-    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.close();
-    if (!out) {
-      std::remove(temp.c_str());
-      throw RuntimeError("cannot write " + temp);
-    }
-  }
-  if (std::rename(temp.c_str(), path.c_str()) != 0) {
-    std::remove(temp.c_str());
-    throw RuntimeError("cannot rename " + temp + " to " + path);
-  }
+  const std::string error = try_write_atomically(path, text, path + ".tmp");
+  if (!error.empty()) throw RuntimeError(error);
 }
 
 }  // namespace gen4d::io

@@ -17,16 +17,8 @@ inline constexpr double kProjectionDesignStretch = 0.1;
 
 //! psi(F) = mu ||F - R||_F^2 + lambda/2 (J - 1)^2 with R the rotation of the signed SVD, so the
 //! model stays defined and restoring for inverted elements (det F < 0).
-struct FixedCorotated {
-  static constexpr const char* name = "corotated";
-  double mu;
-  double lambda;
-
-  //! Lame parameters from the deck values; InputError on E <= 0 or nu outside (-1, 0.5).
-  static FixedCorotated from_young_poisson(double youngs_modulus, double poisson_ratio) {
-    const Lame lame = lame_from_young_poisson(youngs_modulus, poisson_ratio);
-    return FixedCorotated{lame.mu, lame.lambda};
-  }
+struct FixedCorotated : LameLaw<FixedCorotated> {
+  static constexpr const char* name = "fixed_corotated";
 
   //! Energy density with the signed singular values: mu sum (sigma_i - 1)^2 = mu ||F - R||^2.
   GEN4D_HD double energy_from_singular_values(const Vec3& s, double J) const {

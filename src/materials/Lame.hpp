@@ -7,6 +7,8 @@
 #include <fmt/format.h>
 
 #include "core/Error.hpp"
+#include "materials/Hd.hpp"
+#include "materials/Mat3.hpp"
 
 namespace gen4d::materials {
 
@@ -26,6 +28,32 @@ inline Lame lame_from_young_poisson(double youngs_modulus, double poisson_ratio)
         fmt::format("[material] poisson_ratio must be in (-1, 0.5), got {}", poisson_ratio));
   const double E = youngs_modulus, nu = poisson_ratio;
   return Lame{E / (2.0 * (1.0 + nu)), E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))};
+}
+
+//! Base of a law whose parameters are the Lame pair itself (CRTP: Law derives from
+//! LameLaw<Law> and stays an aggregate, Law{mu, lambda}).
+template <class Law>
+struct LameLaw {
+  double mu;      //!< shear modulus, Pa
+  double lambda;  //!< first Lame parameter, Pa
+
+  //! The law at the deck's (E, nu); InputError on E <= 0 or nu outside (-1, 0.5).
+  static Law from_young_poisson(double youngs_modulus, double poisson_ratio) {
+    const Lame l = lame_from_young_poisson(youngs_modulus, poisson_ratio);
+    return Law{l.mu, l.lambda};
+  }
+};
+
+//! The isotropic quadratic energy mu ||e||^2 + lambda/2 tr(e)^2 of a symmetric strain e.
+GEN4D_HD inline double quadratic_strain_energy(const Mat3& e, double mu, double lambda) {
+  const double tr = e.a[0] + e.a[4] + e.a[8];
+  return mu * frobenius_dot(e, e) + 0.5 * lambda * tr * tr;
+}
+
+//! Its derivative with respect to e: 2 mu e + lambda tr(e) I.
+GEN4D_HD inline Mat3 quadratic_strain_stress(const Mat3& e, double mu, double lambda) {
+  const double tr = e.a[0] + e.a[4] + e.a[8];
+  return 2.0 * mu * e + (lambda * tr) * identity3();
 }
 
 }  // namespace gen4d::materials

@@ -10,27 +10,16 @@ namespace gen4d::materials {
 
 //! psi = mu ||eps||^2 + lambda/2 tr(eps)^2, eps = sym(F) - I. Quadratic, so dP/dF is the
 //! constant isotropic tensor; not rotation invariant (large rotations create stress).
-struct LinearElastic {
+struct LinearElastic : LameLaw<LinearElastic> {
   static constexpr const char* name = "linear";
-  double mu;
-  double lambda;
-
-  static LinearElastic from_young_poisson(double youngs_modulus, double poisson_ratio) {
-    const Lame l = lame_from_young_poisson(youngs_modulus, poisson_ratio);
-    return LinearElastic{l.mu, l.lambda};
-  }
   GEN4D_HD static Mat3 small_strain(const Mat3& F) {
     return 0.5 * (F + transpose(F)) - identity3();
   }
   GEN4D_HD double energy(const Mat3& F) const {
-    const Mat3 e = small_strain(F);
-    const double tr = e.a[0] + e.a[4] + e.a[8];
-    return mu * frobenius_dot(e, e) + 0.5 * lambda * tr * tr;
+    return quadratic_strain_energy(small_strain(F), mu, lambda);
   }
   GEN4D_HD Mat3 pk1(const Mat3& F) const {
-    const Mat3 e = small_strain(F);
-    const double tr = e.a[0] + e.a[4] + e.a[8];
-    return 2.0 * mu * e + (lambda * tr) * identity3();
+    return quadratic_strain_stress(small_strain(F), mu, lambda);
   }
   GEN4D_HD double energy_and_pk1(const Mat3& F, Mat3& P) const {
     P = pk1(F);

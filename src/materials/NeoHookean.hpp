@@ -17,7 +17,7 @@ namespace gen4d::materials {
 //! (3 mu / 4)(H + H^T) + (lambda - 5 mu / 8) tr(H) I, so matching linear elasticity with the
 //! Lame pair (mu_L, lambda_L) needs mu = 4/3 mu_L and lambda = lambda_L + 5/6 mu_L.
 struct NeoHookean {
-  static constexpr const char* name = "neo_hookean";
+  static constexpr const char* name = "stable_neo_hookean";
   double mu;      //!< model parameter (4/3 of the Lame shear modulus)
   double lambda;  //!< model parameter (Lame lambda + 5/6 Lame mu)
 

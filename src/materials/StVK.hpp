@@ -11,28 +11,17 @@ namespace gen4d::materials {
 
 //! psi = mu ||E||^2 + lambda/2 tr(E)^2 with the Green strain E = (F^T F - I)/2. Exact for
 //! large rotations, but it softens under strong compression (it is not inversion-safe).
-struct StVK {
+struct StVK : LameLaw<StVK> {
   static constexpr const char* name = "stvk";
-  double mu;
-  double lambda;
-
-  static StVK from_young_poisson(double youngs_modulus, double poisson_ratio) {
-    const Lame l = lame_from_young_poisson(youngs_modulus, poisson_ratio);
-    return StVK{l.mu, l.lambda};
-  }
   GEN4D_HD static Mat3 green_strain(const Mat3& F) {
     return 0.5 * (transpose(F) * F - identity3());
   }
   GEN4D_HD double energy(const Mat3& F) const {
-    const Mat3 E = green_strain(F);
-    const double tr = E.a[0] + E.a[4] + E.a[8];
-    return mu * frobenius_dot(E, E) + 0.5 * lambda * tr * tr;
+    return quadratic_strain_energy(green_strain(F), mu, lambda);
   }
   //! P = F (2 mu E + lambda tr(E) I).
   GEN4D_HD Mat3 pk1(const Mat3& F) const {
-    const Mat3 E = green_strain(F);
-    const double tr = E.a[0] + E.a[4] + E.a[8];
-    return F * (2.0 * mu * E + (lambda * tr) * identity3());
+    return F * quadratic_strain_stress(green_strain(F), mu, lambda);
   }
   GEN4D_HD double energy_and_pk1(const Mat3& F, Mat3& P) const {
     P = pk1(F);

@@ -102,33 +102,34 @@ Isa best_isa() {
   return best;
 }
 
+namespace {
+//! `isa` lowered to what this CPU supports.
+Isa usable(Isa isa) {
+  if (isa == Isa::kAvx512 && __builtin_cpu_supports("avx512f")) return Isa::kAvx512;
+  if (isa >= Isa::kAvx2 && __builtin_cpu_supports("avx2")) return Isa::kAvx2;
+  return Isa::kBaseline;
+}
+
+//! The copy of a loop for `isa` (the copies are indexed by Isa's values).
+template <class Fn>
+Fn pick(Isa isa, Fn baseline, Fn avx2, Fn avx512) {
+  const Fn by_isa[] = {baseline, avx2, avx512};
+  return by_isa[static_cast<int>(usable(isa))];
+}
+}  // namespace
+
 void p2g_bound(const kernels::P2GArgs& a, long b, long e, double* bound, Isa isa) {
-  if (isa == Isa::kAvx512 && __builtin_cpu_supports("avx512f"))
-    bound_avx512(a, b, e, bound);
-  else if (isa >= Isa::kAvx2 && __builtin_cpu_supports("avx2"))
-    bound_avx2(a, b, e, bound);
-  else
-    bound_baseline(a, b, e, bound);
+  pick(isa, &bound_baseline, &bound_avx2, &bound_avx512)(a, b, e, bound);
 }
 
 void p2g(const kernels::P2GArgs& a, const long* order, long b, long e, double* grid, Isa isa) {
-  if (isa == Isa::kAvx512 && __builtin_cpu_supports("avx512f"))
-    p2g_avx512(a, order, b, e, grid);
-  else if (isa >= Isa::kAvx2 && __builtin_cpu_supports("avx2"))
-    p2g_avx2(a, order, b, e, grid);
-  else
-    p2g_baseline(a, order, b, e, grid);
+  pick(isa, &p2g_baseline, &p2g_avx2, &p2g_avx512)(a, order, b, e, grid);
 }
 
 void g2p(const kernels::G2PArgs& a, long b, long e, const kernels::GuardArgs* guard,
          std::uint8_t* status, Isa isa) {
   if (!a.advance) guard = nullptr;
-  if (isa == Isa::kAvx512 && __builtin_cpu_supports("avx512f"))
-    g2p_avx512(a, b, e, guard, status);
-  else if (isa >= Isa::kAvx2 && __builtin_cpu_supports("avx2"))
-    g2p_avx2(a, b, e, guard, status);
-  else
-    g2p_baseline(a, b, e, guard, status);
+  pick(isa, &g2p_baseline, &g2p_avx2, &g2p_avx512)(a, b, e, guard, status);
 }
 
 }  // namespace gen4d::mpm::host

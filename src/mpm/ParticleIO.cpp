@@ -19,6 +19,7 @@
 
 #include "core/Error.hpp"
 #include "core/Log.hpp"
+#include "io/AtomicFile.hpp"
 #include "io/BytePack.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/FrameLayout.hpp"
@@ -132,28 +133,6 @@ std::vector<double> gather_rows(MPI_Comm comm, int width, const std::vector<doub
   return exchange_rows(comm, width, rows, std::vector<int>(rows.size() / width, 0), where);
 }
 
-//! Writes `bytes` to `path` through a temporary beside it and a rename; the message on
-//! failure ("" on success).
-std::string write_file_atomically(const std::string& path, const std::string& bytes) {
-  const fs::path final_path(path);
-  const std::string temp =
-      (final_path.parent_path() / ("." + final_path.filename().string() + ".tmp")).string();
-  std::FILE* file = std::fopen(temp.c_str(), "wb");
-  if (file == nullptr) return path + ": cannot create " + temp + ": " + std::strerror(errno);
-  const bool written = std::fwrite(bytes.data(), 1, bytes.size(), file) == bytes.size();
-  const bool closed = std::fclose(file) == 0;
-  if (!written || !closed) {
-    std::remove(temp.c_str());
-    return path + ": cannot write " + temp + " (disk full?)";
-  }
-  if (std::rename(temp.c_str(), path.c_str()) != 0) {
-    const std::string why = std::strerror(errno);
-    std::remove(temp.c_str());
-    return path + ": cannot rename " + temp + ": " + why;
-  }
-  return "";
-}
-
 // ---- checkpoint layout -------------------------------------------------------------------
 
 //! One id-indexed dataset of a checkpoint: columns [offset, offset + width) of a row.
@@ -165,7 +144,8 @@ struct Column {
   long since = 1;  //!< format_version that added it; older files read it as 0
 };
 
-constexpr int kCheckpointRow = 1 + 3 + 3 + 9 + 9 + kStateSize + 4;
+//! A checkpoint row starts with Particles::pack's record.
+constexpr int kCheckpointRow = Particles::kRecord;
 const Column kCheckpointColumns[] = {{"position", 1, 3, false},
                                      {"velocity", 4, 3, false},
                                      {"C", 7, 9, false},
@@ -182,16 +162,7 @@ std::vector<double> checkpoint_rows(const Particles& p) {
   std::vector<double> rows(p.size() * W);
   for (std::size_t i = 0; i < p.size(); ++i) {
     double* r = &rows[i * W];
-    r[0] = static_cast<double>(p.id[i]);
-    std::copy_n(&p.x[3 * i], 3, r + 1);
-    std::copy_n(&p.v[3 * i], 3, r + 4);
-    std::copy_n(&p.C[9 * i], 9, r + 7);
-    std::copy_n(&p.F[9 * i], 9, r + 16);
-    std::copy_n(&p.state[kStateSize * i], kStateSize, r + 25);
-    r[25 + kStateSize] = p.mass[i];
-    r[26 + kStateSize] = p.vol0[i];
-    r[27 + kStateSize] = p.flag[i];
-    r[28 + kStateSize] = p.material[i];
+    p.pack(i, r);
     std::copy_n(p.extra.data() + i * p.extra_width, p.extra_width, r + kCheckpointRow);
   }
   return rows;
@@ -237,20 +208,8 @@ std::vector<std::string> read_extra_names(hid_t file, const std::string& path) {
 
 //! Checks the format attributes and every dataset's shape and type; returns N.
 std::int64_t check_checkpoint_layout(hid_t file, const std::string& path) {
-  if (!h5::has_attr(file, "format")) {
-    throw InputError(path + ": not a gen4d MPM checkpoint (no 'format' attribute)");
-  }
-  const std::string format = h5::read_string_attr(file, "format", path);
-  if (format != kParticleCheckpointFormat) {
-    throw InputError(path + ": not a gen4d MPM checkpoint (format is '" + format + "', expected '" +
-                     kParticleCheckpointFormat + "')");
-  }
-  const long version = h5::read_long_attr(file, "format_version", path);
-  if (version < 1 || version > kParticleCheckpointFormatVersion) {
-    throw InputError(path + ": MPM checkpoint format_version " + std::to_string(version) +
-                     " is not supported (expected 1 to " +
-                     std::to_string(kParticleCheckpointFormatVersion) + ")");
-  }
+  const long version = h5::check_format(file, path, "MPM checkpoint", kParticleCheckpointFormat, 1,
+                                        kParticleCheckpointFormatVersion);
   const long total = h5::read_long_attr(file, "particle_count", path);
   if (total < 0 || total > kMaxParticles) {
     throw InputError(path + ": particle_count " + std::to_string(total) + " is out of range");
@@ -525,9 +484,7 @@ std::string write_vdb_serial(const std::string& path, const std::vector<double>&
   openvdb::MetaMap file_meta;
   file_meta.insertMeta("creator", openvdb::StringMetadata("gen4d"));
 
-  const fs::path final_path(path);
-  const std::string temp =
-      (final_path.parent_path() / ("." + final_path.filename().string() + ".tmp")).string();
+  const std::string temp = io::temp_beside(path);
   try {
     openvdb::io::File file(temp);
     file.write(grids, file_meta);
@@ -538,12 +495,7 @@ std::string write_vdb_serial(const std::string& path, const std::vector<double>&
     std::replace(what.begin(), what.end(), '\n', ' ');
     return path + ": cannot write " + temp + ": " + what;
   }
-  if (std::rename(temp.c_str(), path.c_str()) != 0) {
-    const std::string why = std::strerror(errno);
-    std::remove(temp.c_str());
-    return path + ": cannot rename " + temp + ": " + why;
-  }
-  return "";
+  return io::try_rename_into_place(temp, path);
 }
 
 }  // namespace
@@ -675,20 +627,8 @@ ParticleFrameWriter ParticleFrameWriter::open_append(MPI_Comm comm, const std::s
   std::vector<ParticleFrameInfo> stored;
   try {
     file = h5::open_file(comm, h5_path, true);
-    if (!h5::has_attr(file.get(), "format")) {
-      throw InputError(h5_path + ": not a gen4d particle frames file (no 'format' attribute)");
-    }
-    const std::string format = h5::read_string_attr(file.get(), "format", h5_path);
-    if (format != kParticleFramesFormat) {
-      throw InputError(h5_path + ": format is '" + format + "', expected '" +
-                       kParticleFramesFormat + "'");
-    }
-    const long version = h5::read_long_attr(file.get(), "format_version", h5_path);
-    if (version != kParticleFramesFormatVersion) {
-      throw InputError(h5_path + ": format_version " + std::to_string(version) +
-                       " is not supported (expected " +
-                       std::to_string(kParticleFramesFormatVersion) + ")");
-    }
+    h5::check_format(file.get(), h5_path, "particle frames file", kParticleFramesFormat,
+                     kParticleFramesFormatVersion, kParticleFramesFormatVersion);
     total = h5::read_long_attr(file.get(), "particle_count", h5_path);
     if (total < 0 || total > kMaxParticles) {
       throw InputError(h5_path + ": particle_count " + std::to_string(total) + " is out of range");
@@ -746,9 +686,7 @@ void ParticleFrameWriter::write_frame(double time, int step, const Particles& pa
   std::vector<double> rows(particles.size() * width);
   for (std::size_t i = 0; i < particles.size(); ++i) {
     double* r = &rows[i * width];
-    r[0] = static_cast<double>(particles.id[i]);
-    std::copy_n(&particles.x[3 * i], 3, r + 1);
-    std::copy_n(&particles.v[3 * i], 3, r + 4);
+    particles.pack_motion(i, r);
     for (int f = 0; f < nf; ++f) r[7 + f] = fields[f].values[i];
   }
   const DenseBlock dense = to_blocks(file_.comm(), total_, width, rows, where);
@@ -803,17 +741,27 @@ std::string particle_xdmf_text(const std::string& h5_name, std::int64_t total_pa
 
 // ---- point clouds and images ---------------------------------------------------------------
 
-void write_particle_ply(MPI_Comm comm, const std::string& path, const Particles& particles) {
-  std::string error = inconsistent(particles);
+namespace {
+//! Rows (id, x, v) of every particle, with the mass when `with_mass`, in id order on rank 0.
+//! Collective; RuntimeError naming `path` on every rank when a rank's arrays are inconsistent.
+std::vector<double> gather_id_x_v(MPI_Comm comm, const std::string& path,
+                                  const Particles& particles, bool with_mass) {
+  const std::string error = inconsistent(particles);
   throw_if_any<RuntimeError>(comm, error.empty() ? "" : path + ": " + error);
-  constexpr int W = 7;
+  const int W = with_mass ? 8 : 7;
   std::vector<double> rows(particles.size() * W);
   for (std::size_t i = 0; i < particles.size(); ++i) {
-    rows[i * W] = static_cast<double>(particles.id[i]);
-    std::copy_n(&particles.x[3 * i], 3, &rows[i * W + 1]);
-    std::copy_n(&particles.v[3 * i], 3, &rows[i * W + 4]);
+    particles.pack_motion(i, &rows[i * W]);
+    if (with_mass) rows[i * W + 7] = particles.mass[i];
   }
-  const std::vector<double> all = gather_rows(comm, W, rows, path + ": ");
+  return gather_rows(comm, W, rows, path + ": ");
+}
+}  // namespace
+
+void write_particle_ply(MPI_Comm comm, const std::string& path, const Particles& particles) {
+  constexpr int W = 7;
+  const std::vector<double> all = gather_id_x_v(comm, path, particles, false);
+  std::string error;
   if (parallel::rank(comm) == 0) {
     const std::size_t n = all.size() / W;
     std::string bytes = fmt::format(
@@ -835,7 +783,7 @@ void write_particle_ply(MPI_Comm comm, const std::string& path, const Particles&
         out += 4;
       }
     }
-    error = write_file_atomically(path, bytes);
+    error = io::try_write_atomically(path, bytes, io::temp_beside(path));
   }
   throw_if_any<RuntimeError>(comm, error);
 }
@@ -845,18 +793,10 @@ void write_particle_vdb(MPI_Comm comm, const std::string& path, const Particles&
   if (!(voxel_size > 0) || !std::isfinite(voxel_size)) {
     throw InputError(path + fmt::format(": VDB voxel size must be positive, got {}", voxel_size));
   }
-  std::string error = inconsistent(particles);
-  throw_if_any<RuntimeError>(comm, error.empty() ? "" : path + ": " + error);
   constexpr int W = 8;
-  std::vector<double> rows(particles.size() * W);
-  for (std::size_t i = 0; i < particles.size(); ++i) {
-    rows[i * W] = static_cast<double>(particles.id[i]);
-    std::copy_n(&particles.x[3 * i], 3, &rows[i * W + 1]);
-    std::copy_n(&particles.v[3 * i], 3, &rows[i * W + 4]);
-    rows[i * W + 7] = particles.mass[i];
-  }
   // Sorted by id, so the file does not depend on how the particles were distributed.
-  const std::vector<double> all = gather_rows(comm, W, rows, path + ": ");
+  const std::vector<double> all = gather_id_x_v(comm, path, particles, true);
+  std::string error;
   if (parallel::rank(comm) == 0) {
     try {
       error = write_vdb_serial(path, all, W, voxel_size);

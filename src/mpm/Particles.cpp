@@ -12,31 +12,12 @@
 namespace gen4d::mpm {
 
 void Particles::clear() {
-  id.clear();
-  x.clear();
-  v.clear();
-  C.clear();
-  F.clear();
-  state.clear();
-  mass.clear();
-  vol0.clear();
-  flag.clear();
-  material.clear();
-  extra.clear();
+  for_each_column([](int, auto& a) { a.clear(); }, *this);
 }
 
 void Particles::reserve(std::size_t n) {
-  id.reserve(n);
-  x.reserve(3 * n);
-  v.reserve(3 * n);
-  C.reserve(9 * n);
-  F.reserve(9 * n);
-  state.reserve(kStateSize * n);
-  mass.reserve(n);
-  vol0.reserve(n);
-  flag.reserve(n);
-  material.reserve(n);
-  extra.reserve(static_cast<std::size_t>(extra_width) * n);
+  for_each_column([n](int width, auto& a) { a.reserve(static_cast<std::size_t>(width) * n); },
+                  *this);
 }
 
 void Particles::push_back(std::int64_t gid, const double* pos, const double* vel, double m,
@@ -62,23 +43,18 @@ void Particles::append(const Particles& o) {
   if (o.extra_width != extra_width)
     throw std::logic_error(
         fmt::format("Particles::append: extra width {} onto {}", o.extra_width, extra_width));
-  id.insert(id.end(), o.id.begin(), o.id.end());
-  x.insert(x.end(), o.x.begin(), o.x.end());
-  v.insert(v.end(), o.v.begin(), o.v.end());
-  C.insert(C.end(), o.C.begin(), o.C.end());
-  F.insert(F.end(), o.F.begin(), o.F.end());
-  state.insert(state.end(), o.state.begin(), o.state.end());
-  mass.insert(mass.end(), o.mass.begin(), o.mass.end());
-  vol0.insert(vol0.end(), o.vol0.begin(), o.vol0.end());
-  flag.insert(flag.end(), o.flag.begin(), o.flag.end());
-  material.insert(material.end(), o.material.begin(), o.material.end());
-  extra.insert(extra.end(), o.extra.begin(), o.extra.end());
+  for_each_column([](int, auto& a, const auto& b) { a.insert(a.end(), b.begin(), b.end()); }, *this,
+                  o);
 }
 
-void Particles::pack(std::size_t i, double* r) const {
+void Particles::pack_motion(std::size_t i, double* r) const {
   r[0] = static_cast<double>(id[i]);
   std::copy_n(&x[3 * i], 3, r + 1);
   std::copy_n(&v[3 * i], 3, r + 4);
+}
+
+void Particles::pack(std::size_t i, double* r) const {
+  pack_motion(i, r);
   std::copy_n(&C[9 * i], 9, r + 7);
   std::copy_n(&F[9 * i], 9, r + 16);
   std::copy_n(&state[kStateSize * i], kStateSize, r + 25);
@@ -91,10 +67,13 @@ void Particles::pack(std::size_t i, double* r) const {
 std::string Particles::inconsistency() const {
   const std::size_t n = size();
   if (extra_width < 0) return fmt::format("negative extra width {}", extra_width);
-  if (x.size() != 3 * n || v.size() != 3 * n || C.size() != 9 * n || F.size() != 9 * n ||
-      state.size() != kStateSize * n || mass.size() != n || vol0.size() != n || flag.size() != n ||
-      material.size() != n || extra.size() != static_cast<std::size_t>(extra_width) * n)
-    return "the particle arrays disagree in length";
+  bool consistent = true;
+  for_each_column(
+      [&](int width, const auto& a) {
+        consistent = consistent && a.size() == static_cast<std::size_t>(width) * n;
+      },
+      *this);
+  if (!consistent) return "the particle arrays disagree in length";
   return "";
 }
 
@@ -122,17 +101,7 @@ void permute_rows(std::vector<T>& a, int width, const std::vector<std::size_t>& 
 }  // namespace
 
 void Particles::compact(const std::vector<std::uint8_t>& keep) {
-  keep_rows(id, 1, keep);
-  keep_rows(x, 3, keep);
-  keep_rows(v, 3, keep);
-  keep_rows(C, 9, keep);
-  keep_rows(F, 9, keep);
-  keep_rows(state, kStateSize, keep);
-  keep_rows(mass, 1, keep);
-  keep_rows(vol0, 1, keep);
-  keep_rows(flag, 1, keep);
-  keep_rows(material, 1, keep);
-  keep_rows(extra, extra_width, keep);
+  for_each_column([&](int width, auto& a) { keep_rows(a, width, keep); }, *this);
 }
 
 void Particles::sort_by_id() {
@@ -140,25 +109,14 @@ void Particles::sort_by_id() {
   std::iota(order.begin(), order.end(), 0);
   std::sort(order.begin(), order.end(),
             [&](std::size_t a, std::size_t b) { return id[a] < id[b]; });
-  permute_rows(id, 1, order);
-  permute_rows(x, 3, order);
-  permute_rows(v, 3, order);
-  permute_rows(C, 9, order);
-  permute_rows(F, 9, order);
-  permute_rows(state, kStateSize, order);
-  permute_rows(mass, 1, order);
-  permute_rows(vol0, 1, order);
-  permute_rows(flag, 1, order);
-  permute_rows(material, 1, order);
-  permute_rows(extra, extra_width, order);
+  for_each_column([&](int width, auto& a) { permute_rows(a, width, order); }, *this);
 }
 
 std::size_t redistribute(MPI_Comm comm, Particles& p, const std::vector<int>& dest) {
   if (parallel::size(comm) == 1) return 0;
   parallel::RowExchange ex;
   ex.fill_gaps_from_end();
-  ex.add(p.id, 1).add(p.x, 3).add(p.v, 3).add(p.C, 9).add(p.F, 9).add(p.state, kStateSize);
-  ex.add(p.mass, 1).add(p.vol0, 1).add(p.flag, 1).add(p.material, 1).add(p.extra, p.extra_width);
+  for_each_column([&](int width, auto& a) { ex.add(a, width); }, p);
   return ex.exchange(comm, dest);
 }
 

@@ -47,6 +47,10 @@ struct Particles {
   void append(const Particles& other);
   //! The kRecord values of particle i.
   void pack(std::size_t i, double* rec) const;
+  //! Doubles of pack_motion's record.
+  static constexpr int kMotionRecord = 1 + 3 + 3;
+  //! id, x and v of particle i: the first kMotionRecord values of pack's record.
+  void pack_motion(std::size_t i, double* rec) const;
   //! Why the arrays disagree in length with size() and extra_width; "" when consistent.
   std::string inconsistency() const;
   //! Keeps particles with keep[i] != 0, in order.
@@ -54,6 +58,23 @@ struct Particles {
   //! Reorders by increasing id.
   void sort_by_id();
 };
+
+//! Calls fn(width, column...) for every per-particle array of the particle sets `p` (the
+//! same array of each), in a fixed order with `extra` last (its width from the first set).
+template <class Fn, class First, class... Rest>
+void for_each_column(Fn&& fn, First& p, Rest&... q) {
+  fn(1, p.id, q.id...);
+  fn(3, p.x, q.x...);
+  fn(3, p.v, q.v...);
+  fn(9, p.C, q.C...);
+  fn(9, p.F, q.F...);
+  fn(kStateSize, p.state, q.state...);
+  fn(1, p.mass, q.mass...);
+  fn(1, p.vol0, q.vol0...);
+  fn(1, p.flag, q.flag...);
+  fn(1, p.material, q.material...);
+  fn(p.extra_width, p.extra, q.extra...);
+}
 
 using kernels::advance_deformation;
 

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/Error.hpp"
+#include "materials/Registry.hpp"
 #include "materials/FixedCorotated.hpp"
 #include "materials/NeoHookean.hpp"
 #include "materials/StVK.hpp"
@@ -54,8 +55,15 @@ const std::vector<std::string>& neural_laws() {
 
 int law_index(const std::string& law, const std::string& where) {
   const auto& laws = neural_laws();
+  const auto canonical = [](const std::string& name) {  // deck names and their old spellings
+    try {
+      return materials::canonical_law(name, materials::Solver::Voxel);
+    } catch (const InputError&) {
+      return name;
+    }
+  };
   for (std::size_t i = 0; i < laws.size(); ++i)
-    if (laws[i] == law) return static_cast<int>(i);
+    if (canonical(laws[i]) == canonical(law)) return static_cast<int>(i);
   throw InputError(where + ": law '" + law +
                    "' has no NeuralMTL (known: corotated, neo_hookean, stvk)");
 }

@@ -9,6 +9,7 @@
 
 #include "core/Error.hpp"
 #include "core/Log.hpp"
+#include "materials/Registry.hpp"
 #include "parallel/Comm.hpp"
 
 namespace gen4d::neural {
@@ -53,7 +54,12 @@ std::unique_ptr<NeuralMtl> load_network(MPI_Comm comm, const std::string& file,
         w = installed()(law, nu, youngs_modulus);
         w.validate(where);
       }
-      if (w.law != law || std::fabs(w.poisson_ratio - nu) > 5e-4)
+      // Weights name their law as they were fitted (older files: an old spelling).
+      const auto same_law = [](const std::string& a, const std::string& b) {
+        return materials::canonical_law(a, materials::Solver::Voxel) ==
+               materials::canonical_law(b, materials::Solver::Voxel);
+      };
+      if (!same_law(w.law, law) || std::fabs(w.poisson_ratio - nu) > 5e-4)
         throw InputError(
             fmt::format("{}: the weights were fitted for {} with nu = {}, but the deck asks for {} "
                         "with nu = {}",

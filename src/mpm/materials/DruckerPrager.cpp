@@ -29,7 +29,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <memory>
 
 #include "mpm/materials/Models.hpp"
 
@@ -51,7 +50,8 @@ struct DruckerPragerConstants {
 // Return map of one particle given the signed SVD U diag(s) V^T of its F: F (9) and state
 // (kStateSize) in place, tau (9) out.
 inline void drucker_prager_kernel(const DruckerPragerConstants& c, const Mat3& U, const Vec3& s,
-                                  const Mat3& V, double* Fp, double* state, double* taup) {
+                                  const Mat3& V, double* Fp, double* state, double* taup,
+                                  double /*dt: rate-independent*/) {
   Vec3 e = detail::hencky_strain(s);
   const double vc = state[0];
   for (int k = 0; k < 3; ++k) e[k] += vc / 3.0;
@@ -67,29 +67,27 @@ inline void drucker_prager_kernel(const DruckerPragerConstants& c, const Mat3& U
   } else {
     const double dgamma = n + (c.alpha * c.K3 * tr - c.k) / (2 * c.mu);
     if (dgamma > 0 && n > 0) {
-      const double shrink = std::min(dgamma, n) / n;
-      for (int k = 0; k < 3; ++k) e[k] -= shrink * eh[k];
+      materials::radial_return(e, eh, n, dgamma);
       state[1] += dgamma;
       changed = true;
     }
     state[0] = 0.0;
   }
-  if (changed) detail::store3x3(materials::compose_svd(U, detail::exp3(e), V), Fp);
-  detail::store3x3(detail::from_principal(U, detail::hencky_principal_tau(e, c.mu, c.lambda)),
-                   taup);
+  detail::store_hencky_return(U, e, V, c.mu, c.lambda, changed ? Fp : nullptr, taup);
 }
 
-class DruckerPrager final : public ElasticBase {
+using DruckerPragerBase =
+    ReturnMap<HenckyReturnModel, DruckerPragerConstants, drucker_prager_kernel>;
+
+class DruckerPrager final : public DruckerPragerBase {
  public:
-  explicit DruckerPrager(const MaterialParams& p) : ElasticBase(p) {
+  explicit DruckerPrager(const MaterialParams& p) : DruckerPragerBase(p) {
     const double phi = p.get("friction_angle");
     const double cohesion = p.get("cohesion", 0.0);
     detail::check_value(p, "friction_angle", phi >= 0 && phi < 90, "in [0, 90) degrees");
     if (p.has("cohesion")) detail::check_value(p, "cohesion", cohesion >= 0, ">= 0 (Pa)");
     constexpr double kDegree = 3.14159265358979323846 / 180.0;
     const double sin_phi = std::sin(phi * kDegree), cos_phi = std::cos(phi * kDegree);
-    c_.mu = mu_;
-    c_.lambda = lambda_;
     c_.alpha = std::sqrt(2.0 / 3.0) * 2 * sin_phi / (3 - sin_phi);
     c_.k = std::sqrt(2.0 / 3.0) * 6 * cohesion * cos_phi / (3 - sin_phi);
     c_.K3 = 3 * lambda_ + 2 * mu_;
@@ -101,26 +99,12 @@ class DruckerPrager final : public ElasticBase {
   std::vector<std::string> state_names() const override {
     return {"volume_correction", "plastic_shear_strain"};
   }
-  void update(std::size_t n, double* F, double* state, double* tau, double) const override {
-    detail::for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3& V) {
-      drucker_prager_kernel(c_, U, s, V, F + 9 * i, state + kStateSize * i, tau + 9 * i);
-    });
-  }
-  void stress(std::size_t n, const double* F, const double*, double* tau) const override {
-    detail::hencky_stress_batch(n, F, mu_, lambda_, tau);
-  }
-
- private:
-  DruckerPragerConstants c_{};
 };
 
 }  // namespace
 
 void register_drucker_prager() {
-  detail::add_material_entry(
-      {"drucker_prager", {"friction_angle", "cohesion"}, [](const MaterialParams& p) {
-         return std::make_unique<DruckerPrager>(p);
-       }});
+  detail::add_model<DruckerPrager>("drucker_prager", {"friction_angle", "cohesion"});
 }
 
 }  // namespace gen4d::mpm

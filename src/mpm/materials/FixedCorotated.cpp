@@ -3,36 +3,20 @@
 // evaluated in the signed SVD F = U Sigma V^T, R = U V^T, where (F - R) F^T = U (Sigma - I) Sigma
 // U^T:
 //   tau = U diag(2 mu (sigma_i - 1) sigma_i + lambda (J - 1) J) U^T   (exactly symmetric).
-#include <memory>
-
 #include "mpm/materials/Models.hpp"
 
 namespace gen4d::mpm {
 
 namespace {
 
-using detail::Mat3;
-using detail::Vec3;
-
-inline Mat3 fixed_corotated_tau(const Mat3& U, const Vec3& s, double mu, double lambda) {
-  const double J = s[0] * s[1] * s[2];
-  const double vol = lambda * (J - 1) * J;
-  const Vec3 t{{2 * mu * (s[0] - 1) * s[0] + vol, 2 * mu * (s[1] - 1) * s[1] + vol,
-                2 * mu * (s[2] - 1) * s[2] + vol}};
-  return detail::from_principal(U, t);
-}
-
-class FixedCorotated final : public ElasticBase {
- public:
-  explicit FixedCorotated(const MaterialParams& p) : ElasticBase(p) {}
-  std::string name() const override { return "fixed_corotated"; }
-  std::vector<std::string> state_names() const override { return {}; }
-  void update(std::size_t n, double* F, double*, double* tau, double) const override {
-    stress(n, F, nullptr, tau);
-  }
-  void stress(std::size_t n, const double* F, const double*, double* tau) const override {
+struct FixedCorotatedLaw {
+  static constexpr const char* kName = "fixed_corotated";
+  static void stress(std::size_t n, const double* F, double mu, double lambda, double* tau) {
+    using detail::Mat3;
+    using detail::Vec3;
     detail::for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3&) {
-      detail::store3x3(fixed_corotated_tau(U, s, mu_, lambda_), tau + 9 * i);
+      detail::store3x3(detail::from_principal(U, detail::corotated_principal_tau(s, mu, lambda)),
+                       tau + 9 * i);
     });
   }
 };
@@ -40,9 +24,7 @@ class FixedCorotated final : public ElasticBase {
 }  // namespace
 
 void register_fixed_corotated() {
-  detail::add_material_entry({"fixed_corotated", {}, [](const MaterialParams& p) {
-                                return std::make_unique<FixedCorotated>(p);
-                              }});
+  detail::add_model<Hyperelastic<FixedCorotatedLaw>>(FixedCorotatedLaw::kName);
 }
 
 }  // namespace gen4d::mpm

@@ -13,7 +13,6 @@
 // stress() uses max(state damage, damage of max(history, current eps)) so it agrees with update().
 #include <algorithm>
 #include <cmath>
-#include <memory>
 
 #include "mpm/materials/Models.hpp"
 
@@ -37,21 +36,22 @@ inline Mat3 fracture_tau(const FractureConstants& c, const Mat3& U, const Vec3& 
                          double& history) {
   history = std::max(history, std::log(std::max(s[0], detail::kMinStretch)));
   damage = std::max(damage, c.damage(history));
-  const double J = s[0] * s[1] * s[2];
-  const double vol = c.lambda * (J - 1) * J;
-  Vec3 t;
-  for (int k = 0; k < 3; ++k) {
-    t[k] = 2 * c.mu * (s[k] - 1) * s[k] + vol;
-    t[k] = t[k] > 0 ? (1 - damage) * t[k] : t[k];
-  }
+  Vec3 t = detail::corotated_principal_tau(s, c.mu, c.lambda);
+  for (int k = 0; k < 3; ++k) t[k] = t[k] > 0 ? (1 - damage) * t[k] : t[k];
   return detail::from_principal(U, t);
 }
 
-class Fracture final : public ElasticBase {
+// update() of one particle: F is never changed (no plasticity).
+inline void fracture_kernel(const FractureConstants& c, const Mat3& U, const Vec3& s, const Mat3&,
+                            double*, double* state, double* taup, double) {
+  detail::store3x3(fracture_tau(c, U, s, state[0], state[1]), taup);
+}
+
+using FractureBase = ReturnMap<ElasticBase, FractureConstants, fracture_kernel>;
+
+class Fracture final : public FractureBase {
  public:
-  explicit Fracture(const MaterialParams& p) : ElasticBase(p) {
-    c_.mu = mu_;
-    c_.lambda = lambda_;
+  explicit Fracture(const MaterialParams& p) : FractureBase(p) {
     c_.eps_c = p.get("fracture_strain");
     c_.eps_f = p.get("failure_strain");
     detail::check_value(p, "fracture_strain", c_.eps_c >= 0, ">= 0 (Hencky strain)");
@@ -62,30 +62,18 @@ class Fracture final : public ElasticBase {
   std::vector<std::string> state_names() const override {
     return {"damage", "max_principal_strain"};
   }
-  void update(std::size_t n, double* F, double* state, double* tau, double) const override {
-    detail::for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3&) {
-      double* st = state + kStateSize * i;
-      detail::store3x3(fracture_tau(c_, U, s, st[0], st[1]), tau + 9 * i);
-    });
-  }
   void stress(std::size_t n, const double* F, const double* state, double* tau) const override {
     detail::for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3&) {
       double d = state[kStateSize * i], h = state[kStateSize * i + 1];
       detail::store3x3(fracture_tau(c_, U, s, d, h), tau + 9 * i);
     });
   }
-
- private:
-  FractureConstants c_{};
 };
 
 }  // namespace
 
 void register_fracture() {
-  detail::add_material_entry(
-      {"fracture", {"fracture_strain", "failure_strain"}, [](const MaterialParams& p) {
-         return std::make_unique<Fracture>(p);
-       }});
+  detail::add_model<Fracture>("fracture", {"fracture_strain", "failure_strain"});
 }
 
 }  // namespace gen4d::mpm

@@ -24,7 +24,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <memory>
 
 #include "mpm/materials/Models.hpp"
 
@@ -67,21 +66,21 @@ inline void herschel_bulkley_kernel(const HerschelBulkleyConstants& c, const Mat
   if (kSqrt2 * c.mu * m > c.tau_y) {
     const double dl = herschel_bulkley_return(c, m, dt);
     if (dl > 0) {
-      const double shrink = std::min(dl, m) / m;
-      for (int k = 0; k < 3; ++k) e[k] -= shrink * eh[k];
+      materials::radial_return(e, eh, m, dl);
       state[0] += kSqrt2 * dl;
-      detail::store3x3(materials::compose_svd(U, detail::exp3(e), V), Fp);
+      detail::store_hencky_return(U, e, V, c.mu, c.lambda, Fp, taup);
+      return;
     }
   }
-  detail::store3x3(detail::from_principal(U, detail::hencky_principal_tau(e, c.mu, c.lambda)),
-                   taup);
+  detail::store_hencky_return(U, e, V, c.mu, c.lambda, nullptr, taup);
 }
 
-class HerschelBulkley final : public ElasticBase {
+using HerschelBulkleyBase =
+    ReturnMap<HenckyReturnModel, HerschelBulkleyConstants, herschel_bulkley_kernel>;
+
+class HerschelBulkley final : public HerschelBulkleyBase {
  public:
-  explicit HerschelBulkley(const MaterialParams& p) : ElasticBase(p) {
-    c_.mu = mu_;
-    c_.lambda = lambda_;
+  explicit HerschelBulkley(const MaterialParams& p) : HerschelBulkleyBase(p) {
     c_.tau_y = p.get("yield_stress");
     c_.K = p.get("consistency");
     c_.n = p.get("flow_index", 1.0);
@@ -91,26 +90,13 @@ class HerschelBulkley final : public ElasticBase {
   }
   std::string name() const override { return "herschel_bulkley"; }
   std::vector<std::string> state_names() const override { return {"plastic_strain"}; }
-  void update(std::size_t n, double* F, double* state, double* tau, double dt) const override {
-    detail::for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3& V) {
-      herschel_bulkley_kernel(c_, U, s, V, F + 9 * i, state + kStateSize * i, tau + 9 * i, dt);
-    });
-  }
-  void stress(std::size_t n, const double* F, const double*, double* tau) const override {
-    detail::hencky_stress_batch(n, F, mu_, lambda_, tau);
-  }
-
- private:
-  HerschelBulkleyConstants c_{};
 };
 
 }  // namespace
 
 void register_herschel_bulkley() {
-  detail::add_material_entry(
-      {"herschel_bulkley",
-       {"yield_stress", "consistency", "flow_index"},
-       [](const MaterialParams& p) { return std::make_unique<HerschelBulkley>(p); }});
+  detail::add_model<HerschelBulkley>("herschel_bulkley",
+                                     {"yield_stress", "consistency", "flow_index"});
 }
 
 }  // namespace gen4d::mpm

@@ -1,6 +1,7 @@
 //! Internal to the MPM material models: the explicit registration functions that
-//! Registry.cpp calls once, the common elastic base class, deck-value checks and the small
-//! per-particle helpers (Hencky strain, principal stresses) the model kernels share.
+//! Registry.cpp calls once, the common base classes (elastic, elastic laws without state,
+//! Hencky-elastic return maps), deck-value checks and the small per-particle helpers (Hencky
+//! strain, principal stresses, the return's write-back) the model kernels share.
 //
 // Registration is explicit rather than by static initialisers: the models live in the static
 // library gen4d_mpm, and the linker drops object files nobody references, which would silently
@@ -12,6 +13,11 @@
 #include <limits>
 #include <string>
 
+#include <memory>
+#include <utility>
+#include <vector>
+
+#include "materials/J2Return.hpp"
 #include "materials/Mat3.hpp"
 #include "materials/Svd3.hpp"
 #include "mpm/Material.hpp"
@@ -88,6 +94,23 @@ inline Mat3 from_principal(const Mat3& U, const Vec3& d) {
   return materials::compose_svd(U, d, U);
 }
 
+//! Principal Kirchhoff stress of the fixed-corotated energy at signed singular values s:
+//! 2 mu (sigma_i - 1) sigma_i + lambda (J - 1) J.
+inline Vec3 corotated_principal_tau(const Vec3& s, double mu, double lambda) {
+  const double J = s[0] * s[1] * s[2];
+  const double vol = lambda * (J - 1) * J;
+  return Vec3{{2 * mu * (s[0] - 1) * s[0] + vol, 2 * mu * (s[1] - 1) * s[1] + vol,
+               2 * mu * (s[2] - 1) * s[2] + vol}};
+}
+
+//! The end of a return in principal Hencky strain e: the elastic F = U exp(e) V^T (skipped when
+//! Fp is null: the return left F as it was) and the StVK-Hencky tau = U tau^(e) U^T.
+inline void store_hencky_return(const Mat3& U, const Vec3& e, const Mat3& V, double mu,
+                                double lambda, double* Fp, double* taup) {
+  if (Fp) store3x3(materials::compose_svd(U, exp3(e), V), Fp);
+  store3x3(from_principal(U, hencky_principal_tau(e, mu, lambda)), taup);
+}
+
 //! fn(i, U, sigma, V) for each of n row-major F's with F_i's signed SVD, computed a block at a
 //! time on vector lanes (materials::svd3_batch, the same bits as svd3). fn may change F_i.
 template <class Fn>
@@ -107,8 +130,19 @@ inline void for_each_svd(std::size_t n, const double* F, const Fn& fn) {
 //! models (their stress() evaluates the current elastic F without a return map).
 inline void hencky_stress_batch(std::size_t n, const double* F, double mu, double lambda,
                                 double* tau) {
-  for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3&) {
-    store3x3(from_principal(U, hencky_principal_tau(hencky_strain(s), mu, lambda)), tau + 9 * i);
+  for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3& V) {
+    store_hencky_return(U, hencky_strain(s), V, mu, lambda, nullptr, tau + 9 * i);
+  });
+}
+
+//! kernel(c, U, sigma, V, F_i, state_i, tau_i, dt) for each of n particles with F_i's signed
+//! SVD: the update() of a return-map model with constants c (the kernel writes the projected
+//! F_i, its state and tau).
+template <class Constants, class Kernel>
+inline void for_each_particle(std::size_t n, double* F, double* state, double* tau, double dt,
+                              const Constants& c, const Kernel& kernel) {
+  for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3& V) {
+    kernel(c, U, s, V, F + 9 * i, state + kStateSize * i, tau + 9 * i, dt);
   });
 }
 
@@ -151,5 +185,62 @@ class ElasticBase : public Material {
   }
   double mu_ = 0, lambda_ = 0;
 };
+
+//! An elastic model without state: Law gives `static constexpr const char* kName` and
+//! `static void stress(n, F, mu, lambda, tau)`; update() leaves F as it is.
+template <class Law>
+class Hyperelastic final : public ElasticBase {
+ public:
+  explicit Hyperelastic(const MaterialParams& p) : ElasticBase(p) {}
+  std::string name() const override { return Law::kName; }
+  std::vector<std::string> state_names() const override { return {}; }
+  void update(std::size_t n, double* F, double*, double* tau, double) const override {
+    stress(n, F, nullptr, tau);
+  }
+  void stress(std::size_t n, const double* F, const double*, double* tau) const override {
+    Law::stress(n, F, mu_, lambda_, tau);
+  }
+};
+
+//! Base of the return-map models with StVK-Hencky elasticity (drucker_prager, von_mises,
+//! herschel_bulkley): stress() is the elastic stress of the current F, without a return.
+class HenckyReturnModel : public ElasticBase {
+ public:
+  void stress(std::size_t n, const double* F, const double*, double* tau) const override {
+    detail::hencky_stress_batch(n, F, mu_, lambda_, tau);
+  }
+
+ protected:
+  using ElasticBase::ElasticBase;
+};
+
+//! A return-map model on Base (ElasticBase or HenckyReturnModel): its constants c_ (the Lame
+//! pair set here, the rest by the derived constructor) and update() running Kernel (see
+//! detail::for_each_particle) on every particle.
+template <class Base, class Constants, auto Kernel>
+class ReturnMap : public Base {
+ public:
+  void update(std::size_t n, double* F, double* state, double* tau, double dt) const override {
+    detail::for_each_particle(n, F, state, tau, dt, c_, Kernel);
+  }
+
+ protected:
+  explicit ReturnMap(const MaterialParams& p) : Base(p) {
+    c_.mu = this->mu_;
+    c_.lambda = this->lambda_;
+  }
+  Constants c_{};
+};
+
+namespace detail {
+
+//! Files model M (constructed from the deck values) under `name` with its own `keys`.
+template <class M>
+void add_model(const char* name, std::vector<std::string> keys = {}) {
+  add_material_entry(
+      {name, std::move(keys), [](const MaterialParams& p) { return std::make_unique<M>(p); }});
+}
+
+}  // namespace detail
 
 }  // namespace gen4d::mpm

@@ -2,9 +2,9 @@
 //   psi = mu/2 (tr(F^T F) - 3) - mu log J + lambda/2 (log J)^2,
 //   tau = mu (F F^T - I) + lambda log(J) I,
 // with J clamped at kMinStretch^3 so inverted particles get a large finite restoring pressure.
+// (The voxel solvers' Neo-Hookean is the stable one, `stable_neo_hookean`.)
 #include <algorithm>
 #include <cmath>
-#include <memory>
 
 #include "mpm/materials/Models.hpp"
 
@@ -12,38 +12,28 @@ namespace gen4d::mpm {
 
 namespace {
 
-using detail::Mat3;
-
-inline Mat3 neo_hookean_tau(const Mat3& F, double mu, double lambda) {
-  constexpr double kMinJ = detail::kMinStretch * detail::kMinStretch * detail::kMinStretch;
-  const double logJ = std::log(std::max(materials::det(F), kMinJ));
-  Mat3 tau = mu * (F * materials::transpose(F));
-  const double diag = lambda * logJ - mu;
-  tau(0, 0) += diag;
-  tau(1, 1) += diag;
-  tau(2, 2) += diag;
-  return tau;
-}
-
-class NeoHookean final : public ElasticBase {
- public:
-  explicit NeoHookean(const MaterialParams& p) : ElasticBase(p) {}
-  std::string name() const override { return "neo_hookean"; }
-  std::vector<std::string> state_names() const override { return {}; }
-  void update(std::size_t n, double* F, double*, double* tau, double) const override {
-    stress(n, F, nullptr, tau);
+struct NeoHookeanLaw {
+  static constexpr const char* kName = "neo_hookean";
+  static detail::Mat3 tau_of(const detail::Mat3& F, double mu, double lambda) {
+    constexpr double kMinJ = detail::kMinStretch * detail::kMinStretch * detail::kMinStretch;
+    const double logJ = std::log(std::max(materials::det(F), kMinJ));
+    detail::Mat3 tau = mu * (F * materials::transpose(F));
+    const double diag = lambda * logJ - mu;
+    tau(0, 0) += diag;
+    tau(1, 1) += diag;
+    tau(2, 2) += diag;
+    return tau;
   }
-  void stress(std::size_t n, const double* F, const double*, double* tau) const override {
+  static void stress(std::size_t n, const double* F, double mu, double lambda, double* tau) {
     for (std::size_t i = 0; i < n; ++i)
-      detail::store3x3(neo_hookean_tau(detail::load3x3(F + 9 * i), mu_, lambda_), tau + 9 * i);
+      detail::store3x3(tau_of(detail::load3x3(F + 9 * i), mu, lambda), tau + 9 * i);
   }
 };
 
 }  // namespace
 
 void register_neo_hookean() {
-  detail::add_material_entry(
-      {"neo_hookean", {}, [](const MaterialParams& p) { return std::make_unique<NeoHookean>(p); }});
+  detail::add_model<Hyperelastic<NeoHookeanLaw>>(NeoHookeanLaw::kName);
 }
 
 }  // namespace gen4d::mpm

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "core/Error.hpp"
+#include "materials/Registry.hpp"
 #include "mpm/Material.hpp"
 #include "mpm/materials/Models.hpp"
 
@@ -43,6 +44,25 @@ std::map<std::string, MaterialEntry>& registry() {
 
 const char* const kCommonKeys[] = {"youngs_modulus", "poisson_ratio", "density"};
 
+//! The entry of the law `name` resolves to (materials::resolve_law, which warns about an old
+//! spelling when `warn`); InputError "WHERE: unknown model 'NAME' (known models: ...)".
+const MaterialEntry& find_entry(const std::string& name, const std::string& where, bool warn) {
+  const auto& entries = registry();
+  std::string law;
+  try {
+    law = warn ? materials::resolve_law(name, materials::Solver::Mpm, where)
+               : materials::canonical_law(name, materials::Solver::Mpm);
+  } catch (const InputError&) {
+    throw InputError(
+        fmt::format("{}unknown {}model '{}' (known models: {})", where.empty() ? "" : where + ": ",
+                    where.empty() ? "MPM material " : "", name, fmt::join(material_names(), ", ")));
+  }
+  const auto it = entries.find(law);
+  if (it == entries.end())
+    throw std::logic_error("MPM law '" + law + "' is in the law table but has no model");
+  return it->second;
+}
+
 }  // namespace
 
 double MaterialParams::get(const std::string& key) const {
@@ -70,13 +90,7 @@ void Material::init_state(double* state) const {
 namespace detail {
 
 void add_material_entry(MaterialEntry entry) {
-  auto& entries = table();
-  if (entry.name.empty() || !entry.build)
-    throw std::logic_error("register_material: entry needs a name and a build function");
-  if (entries.count(entry.name))
-    throw std::logic_error("MPM material '" + entry.name + "' registered twice");
-  std::string name = entry.name;
-  entries.emplace(std::move(name), std::move(entry));
+  materials::file_law(table(), std::move(entry), materials::Solver::Mpm, "MPM register_material");
 }
 
 void check_value(const MaterialParams& params, const std::string& key, bool ok, const char* what) {
@@ -94,16 +108,10 @@ bool register_material(MaterialEntry entry) {
 }
 
 std::unique_ptr<Material> make_material(const MaterialParams& params) {
-  const auto& entries = registry();
   if (params.model.empty())
     throw InputError(fmt::format("{} is required (known models: {})", params.locate("model"),
                                  fmt::join(material_names(), ", ")));
-  const auto it = entries.find(params.model);
-  if (it == entries.end())
-    throw InputError(fmt::format("{}: unknown model '{}' (known models: {})",
-                                 params.locate("model"), params.model,
-                                 fmt::join(material_names(), ", ")));
-  const MaterialEntry& entry = it->second;
+  const MaterialEntry& entry = find_entry(params.model, params.locate("model"), true);
 
   // Every key must belong to the model, and be finite.
   for (const auto& [key, value] : params.values) {
@@ -134,18 +142,12 @@ std::unique_ptr<Material> make_material(const MaterialParams& params) {
 }
 
 std::vector<std::string> material_names() {
-  std::vector<std::string> names;
-  for (const auto& entry : registry()) names.push_back(entry.first);
-  return names;
+  registry();
+  return materials::law_names(materials::Solver::Mpm);
 }
 
 std::vector<std::string> material_keys(const std::string& name) {
-  const auto& entries = registry();
-  const auto it = entries.find(name);
-  if (it == entries.end())
-    throw InputError(fmt::format("unknown MPM material model '{}' (known models: {})", name,
-                                 fmt::join(material_names(), ", ")));
-  return it->second.keys;
+  return find_entry(name, "", false).keys;
 }
 
 }  // namespace gen4d::mpm

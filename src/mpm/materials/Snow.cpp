@@ -17,7 +17,6 @@
 // J_P -> 0: sqrt(exp(xi) (lambda + 2 mu) / rho).
 #include <algorithm>
 #include <cmath>
-#include <memory>
 
 #include "mpm/materials/Models.hpp"
 
@@ -40,16 +39,11 @@ struct SnowConstants {
 
 //! Fixed-corotated Kirchhoff stress of F_E = U diag(s) V^T with the moduli scaled by h.
 inline Mat3 hardened_tau(const SnowConstants& c, const Mat3& U, const Vec3& s, double h) {
-  const double mu = c.mu * h, lambda = c.lambda * h;
-  const double J = s[0] * s[1] * s[2];
-  const double vol = lambda * (J - 1) * J;
-  const Vec3 t{{2 * mu * (s[0] - 1) * s[0] + vol, 2 * mu * (s[1] - 1) * s[1] + vol,
-                2 * mu * (s[2] - 1) * s[2] + vol}};
-  return detail::from_principal(U, t);
+  return detail::from_principal(U, detail::corotated_principal_tau(s, c.mu * h, c.lambda * h));
 }
 
 inline void snow_kernel(const SnowConstants& c, const Mat3& U, Vec3 s, const Mat3& V, double* Fp,
-                        double* state, double* taup) {
+                        double* state, double* taup, double /*dt: rate-independent*/) {
   bool clamped = false;
   double ratio = 1.0;
   for (int k = 0; k < 3; ++k) {
@@ -67,9 +61,11 @@ inline void snow_kernel(const SnowConstants& c, const Mat3& U, Vec3 s, const Mat
   detail::store3x3(hardened_tau(c, U, s, c.hardening(state[0])), taup);
 }
 
-class Snow final : public ElasticBase {
+using SnowBase = ReturnMap<ElasticBase, SnowConstants, snow_kernel>;
+
+class Snow final : public SnowBase {
  public:
-  explicit Snow(const MaterialParams& p) : ElasticBase(p) {
+  explicit Snow(const MaterialParams& p) : SnowBase(p) {
     using detail::check_value;
     const double theta_c = p.get("critical_compression", 2.5e-2);
     const double theta_s = p.get("critical_stretch", 7.5e-3);
@@ -80,8 +76,6 @@ class Snow final : public ElasticBase {
     if (p.has("hardening_coefficient"))
       check_value(p, "hardening_coefficient", c_.xi >= 0 && c_.xi <= kMaxHardeningCoefficient,
                   "in [0, 700]");
-    c_.mu = mu_;
-    c_.lambda = lambda_;
     c_.lo = 1.0 - theta_c;
     c_.hi = 1.0 + theta_s;
   }
@@ -90,11 +84,6 @@ class Snow final : public ElasticBase {
   void init_state(double* state) const override {
     Material::init_state(state);
     state[0] = 1.0;
-  }
-  void update(std::size_t n, double* F, double* state, double* tau, double) const override {
-    detail::for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3& V) {
-      snow_kernel(c_, U, s, V, F + 9 * i, state + kStateSize * i, tau + 9 * i);
-    });
   }
   void stress(std::size_t n, const double* F, const double* state, double* tau) const override {
     detail::for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3&) {
@@ -112,17 +101,13 @@ class Snow final : public ElasticBase {
     const double h = c_.hardening(std::max(0.0, jp * c_.lo * c_.lo * c_.lo));
     return std::sqrt(h * (lambda_ + 2 * mu_) / density_);
   }
-
- private:
-  SnowConstants c_{};
 };
 
 }  // namespace
 
 void register_snow() {
-  detail::add_material_entry({"snow",
-                              {"critical_compression", "critical_stretch", "hardening_coefficient"},
-                              [](const MaterialParams& p) { return std::make_unique<Snow>(p); }});
+  detail::add_model<Snow>("snow",
+                          {"critical_compression", "critical_stretch", "hardening_coefficient"});
 }
 
 }  // namespace gen4d::mpm

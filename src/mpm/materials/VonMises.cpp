@@ -25,7 +25,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <memory>
 
 #include "mpm/materials/Models.hpp"
 
@@ -36,7 +35,7 @@ namespace {
 using detail::Mat3;
 using detail::Vec3;
 
-constexpr double kSqrt23 = 0.816496580927726032732428024902;  // sqrt(2/3)
+using materials::kSqrt23;
 
 struct VonMisesConstants {
   double mu, lambda, density;
@@ -103,9 +102,8 @@ inline void von_mises_kernel(const VonMisesConstants& c, const Mat3& U, const Ve
   const double f_trial = 2 * c.mu * nrm - kSqrt23 * sy0;
   if (f_trial > 0 && nrm > 0) {
     const double dg = c.johnson_cook ? johnson_cook_return(c, nrm, eps_p, dt, thermal, f_trial)
-                                     : f_trial / (2 * c.mu + 2.0 / 3.0 * c.H);
-    const double shrink = std::min(dg, nrm) / nrm;
-    for (int k = 0; k < 3; ++k) e[k] -= shrink * eh[k];
+                                     : materials::j2_linear_multiplier(f_trial, c.mu, c.H);
+    materials::radial_return(e, eh, nrm, dg);
     const double deps = kSqrt23 * dg;
     double sy;
     c.flow_stress(eps_p, dg, dt, thermal, sy, dsy);
@@ -113,20 +111,19 @@ inline void von_mises_kernel(const VonMisesConstants& c, const Mat3& U, const Ve
     if (c.specific_heat > 0)
       state[1] = T + c.taylor_quinney * sy * deps / (c.density * c.specific_heat);
     state[2] = dt > 0 ? deps / dt : 0.0;
-    detail::store3x3(materials::compose_svd(U, detail::exp3(e), V), Fp);
   } else {
     state[2] = 0.0;
+    Fp = nullptr;  // elastic: F stays
   }
-  detail::store3x3(detail::from_principal(U, detail::hencky_principal_tau(e, c.mu, c.lambda)),
-                   taup);
+  detail::store_hencky_return(U, e, V, c.mu, c.lambda, Fp, taup);
 }
 
-class VonMises final : public ElasticBase {
+using VonMisesBase = ReturnMap<HenckyReturnModel, VonMisesConstants, von_mises_kernel>;
+
+class VonMises final : public VonMisesBase {
  public:
-  explicit VonMises(const MaterialParams& p) : ElasticBase(p) {
+  explicit VonMises(const MaterialParams& p) : VonMisesBase(p) {
     using detail::check_value;
-    c_.mu = mu_;
-    c_.lambda = lambda_;
     c_.density = density_;
     c_.johnson_cook = p.has("jc_A");
     if (c_.johnson_cook) {
@@ -178,29 +175,18 @@ class VonMises final : public ElasticBase {
     Material::init_state(state);
     state[1] = T0_;
   }
-  void update(std::size_t n, double* F, double* state, double* tau, double dt) const override {
-    detail::for_each_svd(n, F, [&](std::size_t i, const Mat3& U, const Vec3& s, const Mat3& V) {
-      von_mises_kernel(c_, U, s, V, F + 9 * i, state + kStateSize * i, tau + 9 * i, dt);
-    });
-  }
-  void stress(std::size_t n, const double* F, const double*, double* tau) const override {
-    detail::hencky_stress_batch(n, F, mu_, lambda_, tau);
-  }
 
  private:
-  VonMisesConstants c_{};
   double T0_ = 294.0;
 };
 
 }  // namespace
 
 void register_von_mises() {
-  detail::add_material_entry(
-      {"von_mises",
-       {"yield_stress", "hardening", "jc_A", "jc_B", "jc_n", "jc_C", "jc_m",
-        "reference_strain_rate", "room_temperature", "melt_temperature", "initial_temperature",
-        "specific_heat", "taylor_quinney"},
-       [](const MaterialParams& p) { return std::make_unique<VonMises>(p); }});
+  detail::add_model<VonMises>("von_mises",
+                              {"yield_stress", "hardening", "jc_A", "jc_B", "jc_n", "jc_C", "jc_m",
+                               "reference_strain_rate", "room_temperature", "melt_temperature",
+                               "initial_temperature", "specific_heat", "taylor_quinney"});
 }
 
 }  // namespace gen4d::mpm
