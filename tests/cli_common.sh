@@ -15,3 +15,9 @@ jelly_deck() {
 
 # box LO HI: the key lines of a [[geometry]] box.
 box() { printf 'type = "box"\nlo = %s\nhi = %s' "$1" "$2"; }
+
+# region NAME LO HI [KEYS]: an [[NAME]] box region (fixed, force, ...); KEYS: more key lines.
+region() {
+  printf '[[%s]]\nlo = %s\nhi = %s\n' "$1" "$2" "$3"
+  if [[ -n ${4:-} ]]; then printf '%s\n' "$4"; fi
+}

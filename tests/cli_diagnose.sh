@@ -3,6 +3,7 @@
 # located one-line message, leaving no report (diagnose_blind_small runs it end to end).
 # Usage: cli_diagnose.sh GEN4D MPIEXEC SCRATCH
 set -uo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/cli_common.sh"
 gen4d=$1 mpiexec=$2 scratch=$3
 rm -rf "$scratch" && mkdir -p "$scratch" && cd "$scratch" || exit 1
 fail=0
@@ -17,33 +18,15 @@ check() {  # check NAME EXPECTED_RC PATTERN -- command...
     echo "ok   $name"
   fi
 }
-cat > beam.toml <<'DECK'
-[simulation]
-name = "cli-diagnose"
-dt = 0.004
-end_time = 0.6
-gravity = [0, 0, -9.81]
-[domain]
-voxel_size = 0.01
-[[geometry]]
-type = "box"
-lo = [0, 0, 0]
-hi = [0.08, 0.02, 0.02]
-[material]
-model = "stvk"
-youngs_modulus = 3e5
-poisson_ratio = 0.3
-density = 1000
-[[fixed]]
-lo = [-1, -1, -1]
-hi = [0.001, 1, 1]
-[[force]]
-lo = [0.075, -1, -1]
-hi = [1, 1, 1]
-force = [0, 0.01, -0.01]
-start = 0
-end = 0.1
-DECK
+# The stage tests' cantilever (test_diagnose_stages.cpp): StVK, clamped at x = 0, its tip pulled
+# for 0.1 s.
+{
+  jelly_deck 0.004 0.6 0.01 3e5 "$(box "[0, 0, 0]" "[0.08, 0.02, 0.02]")" "" \
+    "$(printf 'name = "cli-diagnose"\ngravity = [0, 0, -9.81]')"
+  printf 'model = "stvk"\n'
+  region fixed "[-1, -1, -1]" "[0.001, 1, 1]"
+  region force "[0.075, -1, -1]" "[1, 1, 1]" "$(printf 'force = [0, 0.01, -0.01]\nstart = 0\nend = 0.1')"
+} > beam.toml
 hdr="marker,X,Y,Z,t,x,y,z"
 printf '%s\n1,0.08,0.01,0.02,0,0.08,0.01,0.02\n1,0.08,0.01,0.02,0.01,0.08,0.01,0.0199\n' "$hdr" > short.csv
 printf 'marker,X,Y,Z,t,x,y\n1,0.08,0.01,0.02,0,0.08,0.01\n' > missing.csv

@@ -4,11 +4,14 @@
 #include <mpi.h>
 
 #include <algorithm>
+#include <cmath>
 #include <memory>
 #include <vector>
 
+#include "geometry/Shape.hpp"
 #include "mpm/Material.hpp"
 #include "mpm/Particles.hpp"
+#include "mpm/Seeding.hpp"
 #include "mpm/Solver.hpp"
 
 namespace gen4d::test {
@@ -29,6 +32,28 @@ inline mpm::GridSpec grid() {
   g.lo = {-0.3, -0.3, -0.3};
   g.cells = {20, 16, 18};
   return g;
+}
+
+//! Solver options: `gravity`, substeps of at most max_dt, adaptive or fixed.
+inline mpm::SolverOptions options(const Vec3d& gravity, double max_dt, bool adaptive) {
+  mpm::SolverOptions opt;
+  opt.gravity = gravity;
+  opt.max_dt = max_dt;
+  opt.adaptive = adaptive;
+  return opt;
+}
+
+//! A solver on grid() of material m under `opt` and `bcs`, seeded (2 particles per cell and axis)
+//! with the block [0, 0.3] x [0, 0.2] x [0, top] moving at `velocity`.
+inline std::unique_ptr<mpm::Solver> block_solver(MPI_Comm comm,
+                                                 const std::shared_ptr<const mpm::Material>& m,
+                                                 const mpm::SolverOptions& opt,
+                                                 const std::vector<BoundaryConfig>& bcs,
+                                                 const Vec3d& velocity, double top = 0.35) {
+  auto solver = std::make_unique<mpm::Solver>(comm, grid(), m, opt, bcs);
+  const geometry::Box box(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0.3, 0.2, top));
+  solver->distribute(mpm::seed_particles(comm, grid(), box, 2, *m, velocity));
+  return solver;
 }
 
 //! `substeps` adaptive substeps of `s` from time t (advanced).
@@ -67,6 +92,22 @@ inline std::vector<double> gather_sorted(MPI_Comm comm, const mpm::Particles& p)
   std::vector<double> out(all.size());
   for (std::size_t i = 0; i < order.size(); ++i) std::copy_n(&all[order[i] * R], R, &out[i * R]);
   return out;
+}
+
+//! Two gathered runs of one scene (gather_sorted): how many values differ, and the largest
+//! velocity component in `a` (that the scene really moves).
+struct RunComparison {
+  long differ = 0;
+  double moved = 0;
+};
+inline RunComparison compare_runs(const std::vector<double>& a, const std::vector<double>& b) {
+  RunComparison c;
+  const std::size_t R = mpm::Particles::kRecord;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    c.differ += a[i] != b[i];
+    if (i % R >= 4 && i % R < 7) c.moved = std::max(c.moved, std::abs(a[i]));  // velocity
+  }
+  return c;
 }
 
 }  // namespace gen4d::test

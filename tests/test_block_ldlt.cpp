@@ -1,4 +1,4 @@
-// BlockLDLT (the diagnose forward model's linear solver) against Eigen's SimplicialLDLT on
+// BlockLDLT (the voxel FE forward model's linear solver) against Eigen's SimplicialLDLT on
 // block-structured SPD matrices like the model's step matrices: a grid of nodes with 3 dofs,
 // coupled to their neighbours by dense 3x3 blocks, plus isolated entries and an empty row pattern.
 #include <gtest/gtest.h>
@@ -8,10 +8,10 @@
 #include <stdexcept>
 #include <string>
 
-#include "diagnose/BlockLDLT.hpp"
-#include "diagnose/NodeBlockProduct.hpp"
+#include "forward/BlockLDLT.hpp"
+#include "forward/NodeBlockProduct.hpp"
 
-namespace gen4d::diagnose {
+namespace gen4d::forward {
 namespace {
 
 using SpMat = Eigen::SparseMatrix<double>;
@@ -203,4 +203,4 @@ TEST(NodeBlockProduct, IsEigensSparseProductBitForBitAndRefusesOtherPatterns) {
 }
 
 }  // namespace
-}  // namespace gen4d::diagnose
+}  // namespace gen4d::forward

@@ -28,26 +28,31 @@ Edit edit(const std::string& needle, const std::string& line) {
   return {replace_line(kFullDeck, needle, line), line_of(kFullDeck, needle)};
 }
 
+//! expect_error on the full deck with the line holding `needle` replaced by `line`, located at
+//! that line, or `below` lines under it (a key the replacement adds).
+void expect_edit_error(const std::string& name, const std::string& needle, const std::string& line,
+                       const std::string& key, const std::string& detail, int below = 0) {
+  const Edit e = edit(needle, line);
+  expect_error(name, e.text, e.line + below, key, detail);
+}
+
 TEST(DeckErrors, UnknownKey) {
-  auto e = edit("density = 1000", "density = 1000\ncolour = \"red\"");
-  expect_error("unknown_key.toml", e.text, e.line + 1, "material.colour", "unknown key");
+  expect_edit_error("unknown_key.toml", "density = 1000", "density = 1000\ncolour = \"red\"",
+                    "material.colour", "unknown key", 1);
 }
 
 TEST(DeckErrors, TypoSuggestsKey) {
-  auto e = edit("youngs_modulus = 1e6", "youngs_modlus = 1e6");
-  expect_error("typo.toml", e.text, e.line, "material.youngs_modlus",
-               "did you mean 'material.youngs_modulus'?");
-  auto f = edit("poisson_ratio = 0.3", "poisson = 0.3");
-  expect_error("abbreviation.toml", f.text, f.line, "material.poisson",
-               "did you mean 'material.poisson_ratio'?");
+  expect_edit_error("typo.toml", "youngs_modulus = 1e6", "youngs_modlus = 1e6",
+                    "material.youngs_modlus", "did you mean 'material.youngs_modulus'?");
+  expect_edit_error("abbreviation.toml", "poisson_ratio = 0.3", "poisson = 0.3", "material.poisson",
+                    "did you mean 'material.poisson_ratio'?");
 }
 
 TEST(DeckErrors, UnknownTableSuggestsTable) {
-  auto e = edit("[material]", "[materials]");
-  expect_error("unknown_table.toml", e.text, e.line, "materials",
-               "unknown table 'materials' (did you mean 'material'?)");
-  auto f = edit("[output]", "[postprocess]");
-  expect_error("unknown_table2.toml", f.text, f.line, "postprocess", "unknown table");
+  expect_edit_error("unknown_table.toml", "[material]", "[materials]", "materials",
+                    "unknown table 'materials' (did you mean 'material'?)");
+  expect_edit_error("unknown_table2.toml", "[output]", "[postprocess]", "postprocess",
+                    "unknown table");
 }
 
 TEST(DeckErrors, KeyAboveTablesSuggestsItsTable) {
@@ -56,16 +61,13 @@ TEST(DeckErrors, KeyAboveTablesSuggestsItsTable) {
 }
 
 TEST(DeckErrors, WrongType) {
-  auto e = edit("density = 1000", "density = \"heavy\"");
-  expect_error("wrong_type.toml", e.text, e.line, "material.density",
-               "expected a number, got string");
-  auto f = edit("name = \"beam\"", "name = 3");
-  expect_error("wrong_type2.toml", f.text, f.line, "simulation.name",
-               "expected a string, got integer");
-  auto g = edit("[solver]", "[[solver]]");
-  expect_error("wrong_type3.toml", g.text, g.line, "solver", "expected a table");
-  auto h = edit("[[fixed]]", "[fixed]");
-  expect_error("wrong_type4.toml", h.text, h.line, "fixed", "expected an array of tables");
+  expect_edit_error("wrong_type.toml", "density = 1000", "density = \"heavy\"", "material.density",
+                    "expected a number, got string");
+  expect_edit_error("wrong_type2.toml", "name = \"beam\"", "name = 3", "simulation.name",
+                    "expected a string, got integer");
+  expect_edit_error("wrong_type3.toml", "[solver]", "[[solver]]", "solver", "expected a table");
+  expect_edit_error("wrong_type4.toml", "[[fixed]]", "[fixed]", "fixed",
+                    "expected an array of tables");
 }
 
 TEST(DeckErrors, MissingRequiredKeyPointsAtTableHeader) {
@@ -85,41 +87,37 @@ TEST(DeckErrors, MissingTableHasNoLine) {
 }
 
 TEST(DeckErrors, NonPositiveModulus) {
-  auto e = edit("youngs_modulus = 1e6", "youngs_modulus = -1e6");
-  expect_error("negative_modulus.toml", e.text, e.line, "material.youngs_modulus", "must be > 0");
+  expect_edit_error("negative_modulus.toml", "youngs_modulus = 1e6", "youngs_modulus = -1e6",
+                    "material.youngs_modulus", "must be > 0");
 }
 
 TEST(DeckErrors, PoissonRatioBounds) {
   for (const std::string v : {"0.5", "-1", "0.7"}) {
-    auto e = edit("poisson_ratio = 0.3", "poisson_ratio = " + v);
-    expect_error("poisson.toml", e.text, e.line, "material.poisson_ratio",
-                 "must be in (-1, 0.5), got " + v);
+    expect_edit_error("poisson.toml", "poisson_ratio = 0.3", "poisson_ratio = " + v,
+                      "material.poisson_ratio", "must be in (-1, 0.5), got " + v);
   }
 }
 
 TEST(DeckErrors, NonPositiveTimeStep) {
   for (const std::string v : {"0", "-1e-3"}) {
-    auto e = edit("dt = 1e-3", "dt = " + v);
-    expect_error("dt.toml", e.text, e.line, "simulation.dt", "must be > 0");
+    expect_edit_error("dt.toml", "dt = 1e-3", "dt = " + v, "simulation.dt", "must be > 0");
   }
-  auto f = edit("end_time = 0.5", "end_time = 1e-4");
-  expect_error("end_time.toml", f.text, f.line, "simulation.end_time", "must be >= simulation.dt");
+  expect_edit_error("end_time.toml", "end_time = 0.5", "end_time = 1e-4", "simulation.end_time",
+                    "must be >= simulation.dt");
 }
 
 TEST(DeckErrors, NotFinite) {
-  auto e = edit("youngs_modulus = 1e6", "youngs_modulus = nan");
-  expect_error("nan.toml", e.text, e.line, "material.youngs_modulus", "must be finite");
-  auto f = edit("gravity = [0, 0, -9.81]", "gravity = [0, inf, -9.81]");
-  expect_error("inf.toml", f.text, f.line, "simulation.gravity", "must be finite");
+  expect_edit_error("nan.toml", "youngs_modulus = 1e6", "youngs_modulus = nan",
+                    "material.youngs_modulus", "must be finite");
+  expect_edit_error("inf.toml", "gravity = [0, 0, -9.81]", "gravity = [0, inf, -9.81]",
+                    "simulation.gravity", "must be finite");
 }
 
 TEST(DeckErrors, VectorOfTwo) {
-  auto e = edit("gravity = [0, 0, -9.81]", "gravity = [0, -9.81]");
-  expect_error("vec2.toml", e.text, e.line, "simulation.gravity",
-               "expected an array of 3 numbers, got 2 elements");
-  auto f = edit("center = [1, 0.1, 0.1]", "center = [1, \"a\", 0.1]");
-  expect_error("vec_str.toml", f.text, f.line, "geometry.1.center",
-               "element 1 must be a number, got string");
+  expect_edit_error("vec2.toml", "gravity = [0, 0, -9.81]", "gravity = [0, -9.81]",
+                    "simulation.gravity", "expected an array of 3 numbers, got 2 elements");
+  expect_edit_error("vec_str.toml", "center = [1, 0.1, 0.1]", "center = [1, \"a\", 0.1]",
+                    "geometry.1.center", "element 1 must be a number, got string");
 }
 
 TEST(DeckErrors, NoGeometry) {
@@ -132,33 +130,32 @@ TEST(DeckErrors, NoGeometry) {
 }
 
 TEST(DeckErrors, BadGeometryType) {
-  auto e = edit("type = \"sphere\"", "type = \"spere\"");
-  expect_error("geometry_type.toml", e.text, e.line, "geometry.1.type",
-               "must be one of box, sphere, capsule, cylinder, mesh, vdb, splats, got 'spere' (did "
-               "you mean "
-               "'sphere'?)");
+  expect_edit_error(
+      "geometry_type.toml", "type = \"sphere\"", "type = \"spere\"", "geometry.1.type",
+      "must be one of box, sphere, capsule, cylinder, mesh, vdb, splats, got 'spere' (did "
+      "you mean "
+      "'sphere'?)");
 }
 
 TEST(DeckErrors, KeyOfAnotherGeometryType) {
-  auto e = edit("hi = [1, 0.2, 0.2]", "hi = [1, 0.2, 0.2]\nradius = 0.1");
-  expect_error("foreign_key.toml", e.text, e.line + 1, "geometry.0.radius",
-               "not a key of geometry type 'box'");
+  expect_edit_error("foreign_key.toml", "hi = [1, 0.2, 0.2]", "hi = [1, 0.2, 0.2]\nradius = 0.1",
+                    "geometry.0.radius", "not a key of geometry type 'box'", 1);
 }
 
 TEST(DeckErrors, EmptyBoxes) {
-  auto e = edit("hi = [1, 0.2, 0.2]", "hi = [1, 0.2, 0]");
-  expect_error("box_lo_hi.toml", e.text, e.line, "geometry.0.hi", "must be > lo");
-  auto f = edit("hi = [0.05, 0.3, 0.3]", "hi = [-0.2, 0.3, 0.3]");
-  expect_error("fixed_lo_hi.toml", f.text, f.line, "fixed.0.hi", "must be > lo");
+  expect_edit_error("box_lo_hi.toml", "hi = [1, 0.2, 0.2]", "hi = [1, 0.2, 0]", "geometry.0.hi",
+                    "must be > lo");
+  expect_edit_error("fixed_lo_hi.toml", "hi = [0.05, 0.3, 0.3]", "hi = [-0.2, 0.3, 0.3]",
+                    "fixed.0.hi", "must be > lo");
 }
 
 TEST(DeckErrors, MeshFile) {
-  auto e = edit("file = \"assets/bunny.obj\"", "file = \"assets/missing.obj\"");
-  expect_error("missing_mesh.toml", e.text, e.line, "geometry.3.file", "assets/missing.obj");
-  auto f = edit("file = \"assets/bunny.obj\"", "file = \"assets/bunny.ply\"");
-  expect_error("mesh_ext.toml", f.text, f.line, "geometry.3.file", "must be an .obj or .stl");
-  auto g = edit("file = \"assets/cloud.vdb\"", "file = \"nowhere/cloud.vdb\"");
-  expect_error("missing_vdb.toml", g.text, g.line, "geometry.4.file", "file not found");
+  expect_edit_error("missing_mesh.toml", "file = \"assets/bunny.obj\"",
+                    "file = \"assets/missing.obj\"", "geometry.3.file", "assets/missing.obj");
+  expect_edit_error("mesh_ext.toml", "file = \"assets/bunny.obj\"", "file = \"assets/bunny.ply\"",
+                    "geometry.3.file", "must be an .obj or .stl");
+  expect_edit_error("missing_vdb.toml", "file = \"assets/cloud.vdb\"",
+                    "file = \"nowhere/cloud.vdb\"", "geometry.4.file", "file not found");
 }
 
 TEST(DeckErrors, TomlSyntaxHasLineAndColumn) {
@@ -170,60 +167,52 @@ TEST(DeckErrors, TomlSyntaxHasLineAndColumn) {
 }
 
 TEST(DeckErrors, NonIntegralInteger) {
-  auto e = edit("padding = 2.0", "padding = 2.5");
-  expect_error("padding.toml", e.text, e.line, "domain.padding", "expected an integer, got 2.5");
+  expect_edit_error("padding.toml", "padding = 2.0", "padding = 2.5", "domain.padding",
+                    "expected an integer, got 2.5");
 }
 
 TEST(DeckErrors, OtherRanges) {
-  auto e = edit("subspace_modes = 24", "subspace_modes = 65");
-  expect_error("modes.toml", e.text, e.line, "solver.subspace_modes", "must be in [0, 64]");
-  auto f = edit("end = 0.3", "end = 0.1");
-  expect_error("force_end.toml", f.text, f.line, "force.0.end", "must be > start");
-  auto g = edit("relaxation = \"cg\"", "relaxation = \"gauss\"");
-  expect_error("relaxation.toml", g.text, g.line, "solver.relaxation",
-               "must be one of jacobi, chebyshev, cg");
-  auto r = edit("chebyshev_ratio = 0.1", "chebyshev_ratio = 1.0");
-  expect_error("ratio.toml", r.text, r.line, "solver.chebyshev_ratio", "must be in [0, 1)");
-  auto h = edit("checkpoint_keep = 3", "checkpoint_keep = 0");
-  expect_error("keep.toml", h.text, h.line, "output.checkpoint_keep", "must be >= 1");
+  expect_edit_error("modes.toml", "subspace_modes = 24", "subspace_modes = 65",
+                    "solver.subspace_modes", "must be in [0, 64]");
+  expect_edit_error("force_end.toml", "end = 0.3", "end = 0.1", "force.0.end", "must be > start");
+  expect_edit_error("relaxation.toml", "relaxation = \"cg\"", "relaxation = \"gauss\"",
+                    "solver.relaxation", "must be one of jacobi, chebyshev, cg");
+  expect_edit_error("ratio.toml", "chebyshev_ratio = 0.1", "chebyshev_ratio = 1.0",
+                    "solver.chebyshev_ratio", "must be in [0, 1)");
+  expect_edit_error("keep.toml", "checkpoint_keep = 3", "checkpoint_keep = 0",
+                    "output.checkpoint_keep", "must be >= 1");
 }
 
 TEST(DeckErrors, Colliders) {
-  auto e = edit("type = \"plane\"", "type = \"plan\"");
-  expect_error("collider_type.toml", e.text, e.line, "collider.0.type",
-               "must be one of plane, box, got 'plan' (did you mean 'plane'?)");
-  auto f = edit("normal = [0, 0, 2]", "normal = [0, 0, 0]");
-  expect_error("collider_normal.toml", f.text, f.line, "collider.0.normal",
-               "must not be the zero vector");
-  auto g = edit("hi = [3, 1, 1]", "hi = [3, 1, -1]");
-  expect_error("collider_box.toml", g.text, g.line, "collider.1.hi", "must be > lo");
-  auto h = edit("friction = 0.3", "friction = -0.1");
-  expect_error("collider_friction.toml", h.text, h.line, "collider.0.friction",
-               "must be >= 0, got -0.1");
-  auto i = edit("friction = 0.3", "friction = 0.3\nlo = [0, 0, 0]");
-  expect_error("collider_foreign.toml", i.text, i.line + 1, "collider.0.lo",
-               "not a key of collider type 'plane'");
+  expect_edit_error("collider_type.toml", "type = \"plane\"", "type = \"plan\"", "collider.0.type",
+                    "must be one of plane, box, got 'plan' (did you mean 'plane'?)");
+  expect_edit_error("collider_normal.toml", "normal = [0, 0, 2]", "normal = [0, 0, 0]",
+                    "collider.0.normal", "must not be the zero vector");
+  expect_edit_error("collider_box.toml", "hi = [3, 1, 1]", "hi = [3, 1, -1]", "collider.1.hi",
+                    "must be > lo");
+  expect_edit_error("collider_friction.toml", "friction = 0.3", "friction = -0.1",
+                    "collider.0.friction", "must be >= 0, got -0.1");
+  expect_edit_error("collider_foreign.toml", "friction = 0.3", "friction = 0.3\nlo = [0, 0, 0]",
+                    "collider.0.lo", "not a key of collider type 'plane'", 1);
   auto j = edit("normal = [0, 0, 2]", "");
   expect_error("collider_missing.toml", j.text, line_of(kFullDeck, "type = \"plane\"") - 1,
                "collider.0.normal", "missing required key");
-  auto k = edit("normal = [0, 0, 2]", "normal = [0, 0, 2]\nfrictoin = 0.1");
-  expect_error("collider_typo.toml", k.text, k.line + 1, "collider.0.frictoin",
-               "did you mean 'collider.0.friction'?");
+  expect_edit_error("collider_typo.toml", "normal = [0, 0, 2]",
+                    "normal = [0, 0, 2]\nfrictoin = 0.1", "collider.0.frictoin",
+                    "did you mean 'collider.0.friction'?", 1);
 }
 
 TEST(DeckErrors, Tractions) {
-  auto e = edit("hi = [1.2, 0.4, 0.4]", "hi = [0.9, 0.4, 0.4]");
-  expect_error("traction_box.toml", e.text, e.line, "traction.0.hi", "must be > lo");
-  auto f = edit("end = 0.2", "end = 0.01");
-  expect_error("traction_end.toml", f.text, f.line, "traction.0.end",
-               "must be > start (0.05), got 0.01");
+  expect_edit_error("traction_box.toml", "hi = [1.2, 0.4, 0.4]", "hi = [0.9, 0.4, 0.4]",
+                    "traction.0.hi", "must be > lo");
+  expect_edit_error("traction_end.toml", "end = 0.2", "end = 0.01", "traction.0.end",
+                    "must be > start (0.05), got 0.01");
   std::string text = replace_line(kFullDeck, "traction = [0, 1, 0]", "");
   text = replace_line(text, "pressure = 1e3", "");
   expect_error("traction_empty.toml", text, line_of(kFullDeck, "[[traction]]"), "traction.0",
                "needs 'traction' (vec3, Pa) or 'pressure' (Pa)");
-  auto g = edit("pressure = 1e3", "pressure = \"high\"");
-  expect_error("traction_pressure.toml", g.text, g.line, "traction.0.pressure",
-               "expected a number, got string");
+  expect_edit_error("traction_pressure.toml", "pressure = 1e3", "pressure = \"high\"",
+                    "traction.0.pressure", "expected a number, got string");
 }
 
 TEST(DeckErrors, MissingDeckFile) {
@@ -312,12 +301,12 @@ TEST(DeckErrors, EmbeddedSourceName) {
 }
 
 TEST(DeckErrors, NeuralMaterialKeys) {
-  auto e = edit("density = 1000", "density = 1000\nneural_weights = \"mtl.h5\"");
-  expect_error("neural_not_neural.toml", e.text, e.line + 1, "material.neural_weights",
-               "only applies to target = \"neural\"");
-  auto f = edit("target = \"arap\"", "target = \"neural\"\nneural_weights = \"nowhere.h5\"");
-  expect_error("neural_missing.toml", f.text, f.line + 1, "material.neural_weights",
-               "file not found");
+  expect_edit_error("neural_not_neural.toml", "density = 1000",
+                    "density = 1000\nneural_weights = \"mtl.h5\"", "material.neural_weights",
+                    "only applies to target = \"neural\"", 1);
+  expect_edit_error("neural_missing.toml", "target = \"arap\"",
+                    "target = \"neural\"\nneural_weights = \"nowhere.h5\"",
+                    "material.neural_weights", "file not found", 1);
   const std::string g =
       replace_line(replace_line(kFullDeck, "target = \"arap\"", "target = \"neural\""),
                    "model = \"corotated\"", "model = \"linear\"");

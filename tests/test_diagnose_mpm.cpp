@@ -18,7 +18,7 @@
 #include "diagnose/Diagnose.hpp"
 #include "diagnose/Effects.hpp"
 #include "diagnose/Fit.hpp"
-#include "diagnose/MpmModel.hpp"
+#include "diagnose/Forward.hpp"
 #include "diagnose/Recording.hpp"
 #include "test_diagnose_common.hpp"
 
@@ -28,61 +28,32 @@ using namespace gen4d::diagnose::testing;
 
 namespace {
 
-// A jelly block (8 x 4 x 4 cm, 4 x 2 x 2 cells of 2 cm, 8 particles per cell) launched at 1 m/s
-// along a floor at z = 0 that the deck believes frictionless.
-const char* kSlide = R"(
-[simulation]
-name = "slide"
-dt = 1e-3
-end_time = 0.6
-gravity = [0, 0, -9.81]
-[solver]
-method = "mpm"
-[domain]
-voxel_size = 0.02
-[mpm]
-lo = [-0.08, -0.1, -0.08]
-hi = [0.9, 0.14, 0.14]
-particles_per_axis = 2
-velocity = [1.0, 0, 0]
-[[geometry]]
-type = "box"
-lo = [0, 0, 0]
-hi = [0.08, 0.04, 0.04]
-[material]
-model = "fixed_corotated"
-youngs_modulus = 1e5
-poisson_ratio = 0.3
-density = 1000
-[[boundary]]
-type = "surface_collider"
-point = [0, 0, 0]
-normal = [0, 0, 1]
-surface = "separate"
-friction = 0
-)";
+//! A jelly block (8 x 4 x 4 cm, 4 x 2 x 2 cells of 2 cm, 8 particles per cell) of modulus E
+//! launched at `velocity` along a floor at z = 0 that the deck believes frictionless; `lifted`:
+//! 6 cm up and 10 cm tall.
+std::string slide_text(const Vec3d& velocity = {1, 0, 0}, const Vec3d& gravity = {0, 0, -9.81},
+                       bool lifted = false, double youngs_modulus = 1e5) {
+  using test::quoted, test::toml;
+  return test::TestDeck()
+      .simulation(1e-3, 0.6, {{"name", quoted("slide")}, {"gravity", toml(gravity)}})
+      .mpm()
+      .domain(0.02)
+      .table("mpm", {{"lo", toml(Vec3d{-0.08, -0.1, -0.08})},
+                     {"hi", toml(Vec3d{0.9, 0.14, 0.14})},
+                     {"particles_per_axis", "2"},
+                     {"velocity", toml(velocity)}})
+      .box({0, 0, lifted ? 0.06 : 0}, {0.08, 0.04, lifted ? 0.1 : 0.04})
+      .material(youngs_modulus, 0.3, 1000, {{"model", quoted("fixed_corotated")}})
+      .table("[boundary]", {{"type", quoted("surface_collider")},
+                            {"point", toml(Vec3d{0, 0, 0})},
+                            {"normal", toml(Vec3d{0, 0, 1})},
+                            {"surface", quoted("separate")},
+                            {"friction", "0"}});
+}
+const std::string kSlide = slide_text();
 
 Config slide_deck(const std::string& text = kSlide) {
   return parse_deck(text, "<slide deck>", ".");
-}
-
-std::vector<ChannelRequest> requests(const ForwardModel& m, const std::vector<Vec3d>& X, int n,
-                                     double dt) {
-  std::vector<ChannelRequest> req;
-  for (const Vec3d& x : X) {
-    ChannelRequest q;
-    q.at = m.attach(x);
-    for (int k = 0; k <= n; ++k) q.t.push_back(dt * k);
-    req.push_back(q);
-  }
-  return req;
-}
-
-std::string file_text(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
 }
 
 const std::vector<Vec3d> kMarkers = {{0.0, 0.0, 0.04},  {0.04, 0.02, 0.04}, {0.08, 0.04, 0.04},
@@ -91,14 +62,9 @@ const std::vector<Vec3d> kMarkers = {{0.0, 0.0, 0.04},  {0.04, 0.02, 0.04}, {0.0
 }  // namespace
 
 TEST(DiagnoseMpmModel, RestStaysAtRestAndAFreeBlockFallsAsGravitySays) {
-  std::string text =
-      std::regex_replace(kSlide, std::regex("velocity = \\[1.0, 0, 0\\]"), "velocity = [0, 0, 0]");
-  text = std::regex_replace(text, std::regex("lo = \\[0, 0, 0\\]"), "lo = [0, 0, 0.06]");
-  text =
-      std::regex_replace(text, std::regex("hi = \\[0.08, 0.04, 0.04\\]"), "hi = [0.08, 0.04, 0.1]");
-  const MpmModel m(slide_deck(text));
+  const MpmModel m(slide_deck(slide_text({0, 0, 0}, {0, 0, -9.81}, true)));
   const std::vector<Vec3d> X = {{0.04, 0.02, 0.1}, {0.0, 0.0, 0.06}};
-  const auto req = requests(m, X, 8, 0.01);
+  const auto req = marker_requests(m, X, 8, 0.01);
   Physics rest = m.nominal();
   rest.gravity = {0, 0, 0};
   const Trace still = m.run(rest, req);
@@ -123,15 +89,11 @@ TEST(DiagnoseMpmModel, RestStaysAtRestAndAFreeBlockFallsAsGravitySays) {
 TEST(DiagnoseMpmModel, EveryEffectItModelsIsTheDeckAtItsNullValue) {
   const Config cfg = slide_deck();
   const MpmModel m(cfg);
-  const auto req = requests(m, kMarkers, 30, 0.01);
+  const auto req = marker_requests(m, kMarkers, 30, 0.01);
   const Physics base = m.nominal();
   const Trace ref = m.run(base, req);
   ASSERT_TRUE(ref.ok) << ref.failure;
-  EffectContext ctx;
-  ctx.model = &m;
-  ctx.base = base;
-  ctx.omega = 20;
-  ctx.max_mises = ref.max_mises;
+  EffectContext ctx = effect_context(m, base, 20, ref.max_mises);
   ctx.max_speed = ref.max_speed;
   ctx.amplitude = 0.01;
   ctx.lowest_point = 0;
@@ -168,10 +130,10 @@ TEST(DiagnoseMpmModel, EveryEffectItModelsIsTheDeckAtItsNullValue) {
 
 TEST(DiagnoseMpmModel, AFrictionPlaneStopsASlidingBlockWhereCoulombSays) {
   const MpmModel m(slide_deck());
-  const auto req = requests(m, {{0.04, 0.02, 0.04}}, 60, 0.01);
+  const auto req = marker_requests(m, {{0.04, 0.02, 0.04}}, 60, 0.01);
   auto slid = [&](double height, double mu) {
     Physics ph = m.nominal();
-    set_ground(ph, height, mu);
+    set_effect_terms(ph, "contact_friction", {height, mu});
     const Trace tr = m.run(ph, req);
     EXPECT_TRUE(tr.ok) << tr.failure;
     return tr.channel[0][3 * 60] - 0.04;
@@ -198,14 +160,8 @@ namespace {
 
 //! The slide block lifted off the floor (its lowest particles 6 cm up), flying at `v` with
 //! gravity `g`: a rigid body, whatever acts on it.
-MpmModel flying_block(const std::string& v, const std::string& g) {
-  std::string text =
-      std::regex_replace(kSlide, std::regex("velocity = \\[1.0, 0, 0\\]"), "velocity = " + v);
-  text = std::regex_replace(text, std::regex("gravity = \\[0, 0, -9.81\\]"), "gravity = " + g);
-  text = std::regex_replace(text, std::regex("lo = \\[0, 0, 0\\]"), "lo = [0, 0, 0.06]");
-  text =
-      std::regex_replace(text, std::regex("hi = \\[0.08, 0.04, 0.04\\]"), "hi = [0.08, 0.04, 0.1]");
-  return MpmModel(slide_deck(text));
+MpmModel flying_block(const Vec3d& v, const Vec3d& g) {
+  return MpmModel(slide_deck(slide_text(v, g, true)));
 }
 
 }  // namespace
@@ -213,10 +169,10 @@ MpmModel flying_block(const std::string& v, const std::string& g) {
 TEST(DiagnoseMpmModel, AirDragAndDryFrictionSlowAFlyingBlockAsTheirLawsSay) {
   // No gravity, 1 m/s along x: the block is rigid, and its particles' exposed areas sum to the
   // box's surface, 2 (8 x 4) + 2 (8 x 4) + 2 (4 x 4) cm^2 = 0.016 m^2, for 0.128 kg.
-  const MpmModel m = flying_block("[1.0, 0, 0]", "[0, 0, 0]");
+  const MpmModel m = flying_block({1, 0, 0}, {0, 0, 0});
   EXPECT_NEAR(m.exposed_area(), 0.016, 1e-12);
   const double A = 0.016, mass = 0.128, T = 0.5;
-  const auto req = requests(m, {{0.04, 0.02, 0.1}}, 50, 0.01);
+  const auto req = marker_requests(m, {{0.04, 0.02, 0.1}}, 50, 0.01);
   auto travelled = [&](const Physics& ph) {
     const Trace tr = m.run(ph, req);
     EXPECT_TRUE(tr.ok) << tr.failure;
@@ -225,23 +181,23 @@ TEST(DiagnoseMpmModel, AirDragAndDryFrictionSlowAFlyingBlockAsTheirLawsSay) {
   EXPECT_NEAR(travelled(m.nominal()), T, 1e-9);
   // Linear drag c: v = v0 exp(-k t), k = c A / m = 2 1/s; x = v0 (1 - exp(-k T)) / k.
   Physics lin = m.nominal();
-  set_drag(lin, 2.0 * mass / A, 0);
+  set_effect_terms(lin, "air_drag", {2.0 * mass / A, 0});
   const double x_lin = (1 - std::exp(-2.0 * T)) / 2.0;
   EXPECT_NEAR(travelled(lin) / x_lin, 1.0, 2e-3) << "linear drag";
   // Quadratic drag: v = v0 / (1 + k v0 t), k = c A / m = 3 1/m; x = log(1 + k v0 T) / k.
   Physics quad = m.nominal();
-  set_drag(quad, 0, 3.0 * mass / A);
+  set_effect_terms(quad, "air_drag", {0, 3.0 * mass / A});
   EXPECT_NEAR(travelled(quad) / (std::log(1 + 3.0 * T) / 3.0), 1.0, 2e-3) << "quadratic drag";
   // Dry friction a_c = 4 m/s^2: the block stops after v0^2 / (2 a_c) = 0.125 m, at 0.25 s.
   Physics dry = m.nominal();
-  set_dry_friction(dry, 4.0);
+  set_effect_terms(dry, "coulomb_damping", {4.0});
   EXPECT_NEAR(travelled(dry) / 0.125, 1.0, 1e-2) << "dry friction";
 }
 
 TEST(DiagnoseMpmModel, ARegionFactorAPronyTermAndStiffnessDampingActOnTheStress) {
   // The slide block under gravity on the floor: it sags and rings while it slides.
   const MpmModel m(slide_deck());
-  const auto req = requests(m, kMarkers, 30, 0.01);
+  const auto req = marker_requests(m, kMarkers, 30, 0.01);
   const Physics base = m.nominal();
   const Trace ref = m.run(base, req);
   ASSERT_TRUE(ref.ok);
@@ -277,25 +233,25 @@ TEST(DiagnoseMpmModel, ARegionFactorAPronyTermAndStiffnessDampingActOnTheStress)
   // far slower is the elastic body (the relaxing stress is carried in the particle's rotated
   // frame, so the sliding block's rigid motion leaves it alone).
   Physics fast = base;
-  set_prony(fast, 0.4, 1e-9);
+  set_effect_terms(fast, "viscoelasticity", {0.4, 1e-9});
   Physics softer = base;
   softer.youngs_modulus *= 0.6;
   const Trace t_soft = run(softer);
   EXPECT_LT(max_apart(run(fast), t_soft), 1e-6);
   Physics slow = fast;
-  set_prony(slow, 0.4, 1e9);
+  set_effect_terms(slow, "viscoelasticity", {0.4, 1e9});
   EXPECT_LT(max_apart(run(slow), ref), 1e-6);
   // Stiffness damping acts on the rate of deformation only: it does not slow the flying
   // block's rigid translation, and it damps the sag's ringing of the sliding one.
-  const MpmModel fly = flying_block("[1.0, 0, 0]", "[0, 0, 0]");
-  const auto freq = requests(fly, {{0.04, 0.02, 0.1}}, 30, 0.01);
+  const MpmModel fly = flying_block({1, 0, 0}, {0, 0, 0});
+  const auto freq = marker_requests(fly, {{0.04, 0.02, 0.1}}, 30, 0.01);
   Physics fb = fly.nominal();
-  set_damping(fb, 0, 1e-3);
+  set_effect_terms(fb, "damping", {0, 1e-3});
   const Trace t_fly = fly.run(fb, freq), t_fly0 = fly.run(fly.nominal(), freq);
   ASSERT_TRUE(t_fly.ok && t_fly0.ok) << t_fly.failure << t_fly0.failure;
   EXPECT_LT(max_apart(t_fly, t_fly0), 1e-9);
   Physics damped = base;
-  set_damping(damped, 0, 1e-3);
+  set_effect_terms(damped, "damping", {0, 1e-3});
   const Trace t_damped = run(damped);
   // The top centre marker's vertical ringing about its late mean, over the last 0.1 s.
   auto ringing = [&](const Trace& tr) {
@@ -313,21 +269,11 @@ TEST(DiagnoseMpmModel, RanksShareRunsBitForBit) {
   const Config cfg = slide_deck();
   const MpmModel m(cfg);
   Observations obs;
-  obs.requests = requests(m, kMarkers, 20, 0.01);
-  for (std::size_t c = 0; c < obs.requests.size(); ++c)
-    for (std::size_t k = 0; k < obs.requests[c].t.size(); ++k)
-      for (int a = 0; a < 3; ++a) {
-        obs.y.push_back(0);
-        obs.t.push_back(obs.requests[c].t[k]);
-        obs.channel.push_back(static_cast<int>(c));
-        obs.component.push_back(a);
-        obs.sigma.push_back(1e-4);
-        obs.train.push_back(1);
-        obs.heldout.push_back(0);
-      }
+  obs.requests = marker_requests(m, kMarkers, 20, 0.01);
+  add_fitted(obs, 1e-4);
   std::vector<Physics> batch(3, m.nominal());
-  set_ground(batch[1], 0, 0.4);
-  set_damping(batch[2], 3, 0);
+  set_effect_terms(batch[1], "contact_friction", {0, 0.4});
+  set_effect_terms(batch[2], "damping", {3, 0});
   Evaluator ev(MPI_COMM_WORLD, m, obs);
   const auto got = ev.run(batch);
   for (std::size_t i = 0; i < batch.size(); ++i) {
@@ -340,8 +286,7 @@ TEST(DiagnoseMpmModel, RanksShareRunsBitForBit) {
 }
 
 TEST(DiagnoseMpm, RefusesClampComplianceAccelerometersAndVoxelOnlyDeckSections) {
-  int rank = 0, size = 1;
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  int size = 1;
   MPI_Comm_size(MPI_COMM_WORLD, &size);
   const std::string dir = "diagnose_mpm_refusals_np" + std::to_string(size);
   const Config cfg = slide_deck();
@@ -358,44 +303,25 @@ TEST(DiagnoseMpm, RefusesClampComplianceAccelerometersAndVoxelOnlyDeckSections) 
     }
     rec.channels.push_back(ch);
   }
-  if (rank == 0) {
-    std::filesystem::remove_all(dir);
-    std::filesystem::create_directories(dir);
-    write_recording_csv(rec, dir + "/rec.csv");  // the sensor goes to rec-acc.csv
-  }
-  MPI_Barrier(MPI_COMM_WORLD);
+  write_fresh_recording(rec, dir);  // the sensor goes to rec-acc.csv
   DiagnoseOptions opt;
   opt.recordings = {dir + "/rec.csv", dir + "/rec-acc.csv"};
   opt.out_dir = dir + "/out";
   opt.effects = {"contact_friction", "clamp_compliance"};
-  try {
-    run_diagnose(MPI_COMM_WORLD, cfg, opt);
-    ADD_FAILURE() << "clamp_compliance on an MPM deck was accepted";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("--effects clamp_compliance: the mpm model"),
-              std::string::npos)
-        << e.what();
-    EXPECT_NE(std::string(e.what()).find("no [[fixed]] supports"), std::string::npos) << e.what();
-  }
+  const auto diagnose = [&] { run_diagnose(MPI_COMM_WORLD, cfg, opt); };
+  const std::string clamp = refusal(diagnose, "clamp_compliance on an MPM deck");
+  EXPECT_NE(clamp.find("--effects clamp_compliance: the mpm model"), std::string::npos) << clamp;
+  EXPECT_NE(clamp.find("no [[fixed]] supports"), std::string::npos) << clamp;
   opt.effects = {"contact_friction"};
-  try {
-    run_diagnose(MPI_COMM_WORLD, cfg, opt);
-    ADD_FAILURE() << "an accelerometer on an MPM deck was accepted";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("sensor 'a0': the mpm model samples marker positions"),
-              std::string::npos)
-        << e.what();
-  }
+  const std::string sensor = refusal(diagnose, "an accelerometer on an MPM deck");
+  EXPECT_NE(sensor.find("sensor 'a0': the mpm model samples marker positions"), std::string::npos)
+      << sensor;
   EXPECT_FALSE(std::filesystem::exists(opt.out_dir + "/report.json"));
   // Voxel-solver sections in an MPM deck are refused by name.
-  const std::string fixed = std::string(kSlide) + "[[fixed]]\nlo = [-1, -1, -1]\nhi = [0, 1, 1]\n";
-  try {
-    MpmModel bad(slide_deck(fixed));
-    ADD_FAILURE() << "[[fixed]] in an MPM deck was accepted";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("[[fixed]] does not apply"), std::string::npos)
-        << e.what();
-  }
+  const std::string fixed = kSlide + "[[fixed]]\nlo = [-1, -1, -1]\nhi = [0, 1, 1]\n";
+  const std::string section =
+      refusal([&] { MpmModel bad(slide_deck(fixed)); }, "[[fixed]] in an MPM deck");
+  EXPECT_NE(section.find("[[fixed]] does not apply"), std::string::npos) << section;
 }
 
 namespace {
@@ -415,34 +341,14 @@ std::string diagnose_slide(double mu, const std::string& name) {
   fine.dt = 0.5 * dt;
   const MpmModel truth_model(fine);
   Physics truth = truth_model.nominal();
-  if (mu > 0) set_ground(truth, 0, mu);
-  const auto req = requests(truth_model, kMarkers, 60, 0.01);
+  if (mu > 0) set_effect_terms(truth, "contact_friction", {0, mu});
+  const auto req = marker_requests(truth_model, kMarkers, 60, 0.01);
   const Trace tr = truth_model.run(truth, req);
   EXPECT_TRUE(tr.ok) << tr.failure;
   if (!tr.ok) return {};
-  std::mt19937 rng(5);
-  std::normal_distribution<double> noise(0, 1e-4);
-  Recording rec;
-  for (std::size_t c = 0; c < req.size(); ++c) {
-    Channel ch;
-    ch.id = "m" + std::to_string(c);
-    ch.X = {kMarkers[c][0], kMarkers[c][1], kMarkers[c][2]};
-    for (std::size_t k = 0; k < req[c].t.size(); ++k) {
-      ch.t.push_back(req[c].t[k]);
-      ch.value.push_back({tr.channel[c][3 * k] + noise(rng), tr.channel[c][3 * k + 1] + noise(rng),
-                          tr.channel[c][3 * k + 2] + noise(rng)});
-    }
-    rec.channels.push_back(ch);
-  }
   const std::string dir = "diagnose_mpm_" + name + "_np" + std::to_string(size);
-  if (rank == 0) {
-    std::filesystem::remove_all(dir);
-    std::filesystem::create_directories(dir);
-    write_recording_csv(rec, dir + "/rec.csv");
-  }
-  MPI_Barrier(MPI_COMM_WORLD);
-  const Config cfg = slide_deck(
-      std::regex_replace(kSlide, std::regex("youngs_modulus = 1e5"), "youngs_modulus = 9.4e4"));
+  write_fresh_recording(noisy_markers(kMarkers, req, tr, 1e-4, 5), dir);
+  const Config cfg = slide_deck(slide_text({1, 0, 0}, {0, 0, -9.81}, false, 9.4e4));
   DiagnoseOptions opt;
   opt.recordings = {dir + "/rec.csv"};
   opt.out_dir = dir + "/out";

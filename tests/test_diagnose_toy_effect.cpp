@@ -13,9 +13,11 @@
 
 #include "core/Deck.hpp"
 #include "diagnose/Pipeline.hpp"
+#include "test_diagnose_common.hpp"
 
 using namespace gen4d;
 using namespace gen4d::diagnose;
+using namespace gen4d::diagnose::testing;
 
 namespace {
 
@@ -63,33 +65,8 @@ class SidePush final : public Effect {
   };
 };
 
-const char* kDeck = R"(
-[simulation]
-name = "toy-beam"
-dt = 0.004
-end_time = 0.4
-gravity = [0, 0, -9.81]
-[domain]
-voxel_size = 0.01
-[[geometry]]
-type = "box"
-lo = [0, 0, 0]
-hi = [0.08, 0.02, 0.02]
-[material]
-model = "stvk"
-youngs_modulus = 3e5
-poisson_ratio = 0.3
-density = 1000
-[[fixed]]
-lo = [-1, -1, -1]
-hi = [0.001, 1, 1]
-[[force]]
-lo = [0.075, -1, -1]
-hi = [1, 1, 1]
-force = [0, 0.01, -0.01]
-start = 0
-end = 0.1
-)";
+const std::string kDeck = cantilever(named("toy-beam", -9.81), 0.004, 0.4, {0.08, 0.02, 0.02}, 3e5,
+                                     0.075, pulse({0, 0.01, -0.01}, 0.1));
 
 constexpr double kTruePush = 1.0, kTrueAlpha = 4.0, kNoise = 2e-5;
 
@@ -112,34 +89,11 @@ std::string record(const std::string& name, const Physics& truth) {
   const VoxelModel m(deck());
   const std::vector<Vec3d> markers = {
       {0.08, 0.01, 0.02}, {0.06, 0.0, 0.01}, {0.04, 0.02, 0.0}, {0.08, 0.0, 0.0}};
-  std::vector<ChannelRequest> req;
-  for (const Vec3d& X : markers) {
-    ChannelRequest q;
-    q.at = m.attach(X);
-    for (int k = 0; k <= 80; ++k) q.t.push_back(0.005 * k);
-    req.push_back(q);
-  }
+  const auto req = marker_requests(m, markers, 80, 0.005);
   const Trace tr = m.run(truth, req);
   EXPECT_TRUE(tr.ok) << tr.failure;
-  std::mt19937 rng(7);
-  std::normal_distribution<double> noise(0, kNoise);
-  Recording rec;
-  for (std::size_t c = 0; c < req.size(); ++c) {
-    Channel ch;
-    ch.kind = ChannelKind::Position;
-    ch.id = "m" + std::to_string(c);
-    ch.X = {markers[c][0], markers[c][1], markers[c][2]};
-    for (std::size_t k = 0; k < req[c].t.size(); ++k) {
-      ch.t.push_back(req[c].t[k]);
-      ch.value.push_back({tr.channel[c][3 * k] + noise(rng), tr.channel[c][3 * k + 1] + noise(rng),
-                          tr.channel[c][3 * k + 2] + noise(rng)});
-    }
-    rec.channels.push_back(ch);
-  }
   const std::string dir = "diagnose_toy_" + name;
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  write_recording_csv(rec, dir + "/rec.csv");
+  write_fresh_recording(noisy_markers(markers, req, tr, kNoise, 7), dir);
   return dir + "/rec.csv";
 }
 

@@ -22,14 +22,6 @@ using namespace geomtest;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-std::string asset_path(const std::string& name) {
-  const fs::path dir = fs::path(GEN4D_BINARY_DIR) / "tests" / "geometry_assets";
-  fs::create_directories(dir);
-  return (dir / name).string();
-}
-
 std::string shared_mesh(const std::string& name) {
   return (std::filesystem::path(GEN4D_SHARED_DIR) / "data" / "meshes" / name).string();
 }

@@ -14,8 +14,6 @@ using namespace geomtest;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 double ball_volume(double r) {
   return 4.0 / 3.0 * kPi * r * r * r;
 }

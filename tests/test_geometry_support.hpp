@@ -1,4 +1,5 @@
-//! Helpers shared by the geometry test files: voxel volume of a shape, InputError checks.
+//! Helpers shared by the geometry test files: voxel volume of a shape, InputError checks, a
+//! folder for the files the tests write.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -8,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -15,6 +17,16 @@
 #include "geometry/Shape.hpp"
 
 namespace geomtest {
+
+constexpr double kPi = 3.14159265358979323846;
+
+//! `name` in the build tree's folder of geometry test assets (made when missing).
+inline std::string asset_path(const std::string& name) {
+  const std::filesystem::path dir =
+      std::filesystem::path(GEN4D_BINARY_DIR) / "tests" / "geometry_assets";
+  std::filesystem::create_directories(dir);
+  return (dir / name).string();
+}
 
 //! Solid volume of the shape voxelized over its bounds (plus two cells) at spacing h.
 inline double voxel_volume(const gen4d::geometry::Shape& s, double h) {

@@ -19,15 +19,8 @@ using namespace geomtest;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kRadius = 1.0;
 const Vector3d kCenter(0.2, -0.1, 0.05);
-
-std::string asset_path(const std::string& name) {
-  const fs::path dir = fs::path(GEN4D_BINARY_DIR) / "tests" / "geometry_assets";
-  fs::create_directories(dir);
-  return (dir / name).string();
-}
 
 // A file holding, in order, a fog volume "density", a vector grid "velocity" and the level
 // set "sphere", so that an empty grid name has to skip the first two.

@@ -5,10 +5,10 @@
 
 #include <random>
 
-#include "diagnose/HenckyJ2.hpp"
+#include "forward/HenckyJ2.hpp"
 #include "mpm/Material.hpp"
 
-namespace gen4d::diagnose {
+namespace gen4d::forward {
 namespace {
 
 TEST(HenckyJ2, MatchesTheMpmVonMisesMaterial) {
@@ -67,4 +67,4 @@ TEST(HenckyJ2, RejectsASingularDeformation) {
 }
 
 }  // namespace
-}  // namespace gen4d::diagnose
+}  // namespace gen4d::forward

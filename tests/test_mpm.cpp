@@ -48,25 +48,10 @@ struct Scene {
   bool adaptive = true;
 };
 
-mpm::GridSpec small_grid() {
-  mpm::GridSpec g;
-  g.dx = 0.05;
-  g.lo = {-0.3, -0.3, -0.3};
-  g.cells = {20, 16, 18};
-  return g;
-}
-
 std::unique_ptr<mpm::Solver> make(MPI_Comm comm, const Scene& s) {
-  mpm::SolverOptions opt;
-  opt.gravity = s.gravity;
-  opt.max_dt = s.max_dt;
-  opt.adaptive = s.adaptive;
+  mpm::SolverOptions opt = test::options(s.gravity, s.max_dt, s.adaptive);
   opt.remove_outside = s.remove;
-  auto m = material(s.model, s.params);
-  auto solver = std::make_unique<mpm::Solver>(comm, small_grid(), m, opt, s.bcs);
-  const geometry::Box box(Eigen::Vector3d(0, 0, 0.0), Eigen::Vector3d(0.3, 0.2, 0.35));
-  solver->distribute(mpm::seed_particles(comm, small_grid(), box, 2, *m, s.velocity));
-  return solver;
+  return test::block_solver(comm, material(s.model, s.params), opt, s.bcs, s.velocity);
 }
 
 using test::gather_sorted;
@@ -85,13 +70,7 @@ void expect_bit_identical(const Scene& scene, int substeps) {
   const auto b = gather_sorted(MPI_COMM_SELF, serial->particles());
   ASSERT_EQ(a.size(), b.size()) << scene.model;
   ASSERT_GT(a.size(), 0u);
-  long differ = 0;
-  double moved = 0;
-  const int R = mpm::Particles::kRecord;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    differ += a[i] != b[i];
-    if (i % R >= 4 && i % R < 7) moved = std::max(moved, std::abs(a[i]));  // velocity
-  }
+  const auto [differ, moved] = test::compare_runs(a, b);
   EXPECT_EQ(ts, t);
   EXPECT_EQ(differ, 0) << scene.model;
   EXPECT_GT(moved, 1e-2) << scene.model;  // the scene really moves
@@ -229,7 +208,7 @@ TEST(MpmSolver, ParticlesLeavingTheGridAreClampedOrRemovedAndCounted) {
       EXPECT_EQ(solver->count(), n0);
     }
     const auto& p = solver->particles();
-    const auto g = small_grid();
+    const auto g = test::grid();
     for (std::size_t i = 0; i < p.size(); ++i)
       for (int a = 0; a < 3; ++a) {
         const double X = (p.x[3 * i + a] - g.lo[a]) / g.dx;

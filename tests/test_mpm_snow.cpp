@@ -344,23 +344,11 @@ TEST(MpmSnow, InvertedTrialStaysFinite) {
 // ---------------------------------------------------------------------------------------------
 // (5) A snow block dropped on a floor
 
-mpm::GridSpec grid() {
-  mpm::GridSpec g;
-  g.dx = 0.05;
-  g.lo = {-0.3, -0.3, -0.3};
-  g.cells = {20, 16, 18};
-  return g;
-}
-
 std::unique_ptr<mpm::Solver> drop(MPI_Comm comm) {
   mpm::SolverOptions opt;
   opt.max_dt = 2e-3;
-  auto m = snow();
   const std::vector<BoundaryConfig> floor = {mpm::surface_collider("sticky", {0, 0, 0}, {0, 0, 1})};
-  auto solver = std::make_unique<mpm::Solver>(comm, grid(), m, opt, floor);
-  const geometry::Box box(Eigen::Vector3d(0, 0, 0.0), Eigen::Vector3d(0.3, 0.2, 0.3));
-  solver->distribute(mpm::seed_particles(comm, grid(), box, 2, *m, {0, 0, -2}));
-  return solver;
+  return test::block_solver(comm, snow(), opt, floor, {0, 0, -2}, 0.3);
 }
 
 using test::gather_sorted;

@@ -95,6 +95,27 @@ void expect_vec(const PgVec3& got, const PgVec3& want, double tol = 0) {
   for (int d = 0; d < 3; ++d) EXPECT_NEAR(got[d], want[d], tol) << "component " << d;
 }
 
+//! A trained object as it is stored: `trained` written to dir/object.ply (float32), and what
+//! preprocessing under p makes of the file read back.
+struct StoredObject {
+  std::string ply;
+  PhysGaussianPreprocessed pre;
+};
+StoredObject store_and_preprocess(const TempDir& dir, const SplatSet& trained,
+                                  const PhysGaussianParams& p) {
+  const std::string ply = dir.file("object.ply");
+  write_splats_ply(ply, trained);
+  return {ply, preprocess_physgaussian(read_splats_ply(ply), p)};
+}
+
+//! The deck physgaussian_to_deck writes for `ply` (trained space) and `pre`, parsed; the
+//! conversion's notes in `notes`.
+gen4d::Config converted(const TempDir& dir, const PhysGaussianParams& p, const std::string& ply,
+                        const PhysGaussianPreprocessed& pre, std::vector<std::string>& notes) {
+  return gen4d::parse_deck(physgaussian_to_deck(p, ply, pre, PlySpace::Trained, &notes),
+                           "converted.toml", dir.file(""));
+}
+
 PgVec3 unit(const PgVec3& v) {
   const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
   return {v[0] / n, v[1] / n, v[2] / n};
@@ -429,13 +450,9 @@ TEST(PhysGaussianDeck, JellyDeckParsesToTheSameScene) {
   TempDir dir;
   const PhysGaussianParams p = read_physgaussian_config(fixture("jelly_cuboid.json"));
   const SplatSet trained = splats_at(lattice(-0.8, 0.6, 6));
-  const std::string ply = dir.file("object.ply");
-  write_splats_ply(ply, trained);
-  const SplatSet stored = read_splats_ply(ply);
-  const PhysGaussianPreprocessed pre = preprocess_physgaussian(stored, p);
+  const auto [ply, pre] = store_and_preprocess(dir, trained, p);
   std::vector<std::string> notes;
-  const std::string text = physgaussian_to_deck(p, ply, pre, PlySpace::Trained, &notes);
-  const gen4d::Config c = gen4d::parse_deck(text, "converted.toml", dir.file(""));
+  const gen4d::Config c = converted(dir, p, ply, pre, notes);
   EXPECT_EQ(c.solver.method, "mpm");
   EXPECT_EQ(c.dt, 1e-4);
   EXPECT_DOUBLE_EQ(c.end_time, 4e-2 * 125);
@@ -503,9 +520,7 @@ TEST(PhysGaussianDeck, DampingMovingCuboidAndCutReachTheDeck) {
   TempDir dir;
   PhysGaussianParams p = read_physgaussian_config(fixture("jelly_cuboid.json"));
   const SplatSet trained = splats_at(lattice(-0.8, 0.6, 6));
-  const std::string ply = dir.file("object.ply");
-  write_splats_ply(ply, trained);
-  const PhysGaussianPreprocessed pre = preprocess_physgaussian(read_splats_ply(ply), p);
+  const auto [ply, pre] = store_and_preprocess(dir, trained, p);
   p.rpic_damping = -1;
   p.grid_v_damping_scale = 0.9995;
   PhysGaussianBoundary& cub = p.boundary_conditions[1];
@@ -520,8 +535,7 @@ TEST(PhysGaussianDeck, DampingMovingCuboidAndCutReachTheDeck) {
   cut.end_time = 5;
   p.boundary_conditions.push_back(cut);
   std::vector<std::string> notes;
-  const gen4d::Config c = gen4d::parse_deck(
-      physgaussian_to_deck(p, ply, pre, PlySpace::Trained, &notes), "converted.toml", dir.file(""));
+  const gen4d::Config c = converted(dir, p, ply, pre, notes);
   EXPECT_EQ(c.mpm.rpic_damping, -1);  // below -0.001: PIC
   EXPECT_EQ(c.mpm.grid_velocity_scale, 0.9995);
   ASSERT_EQ(c.boundaries.size(), 4u);
@@ -551,8 +565,7 @@ TEST(PhysGaussianDeck, DampingMovingCuboidAndCutReachTheDeck) {
   p.rpic_damping = 1.5;
   p.grid_v_damping_scale = 1.1;
   notes.clear();
-  const gen4d::Config d = gen4d::parse_deck(
-      physgaussian_to_deck(p, ply, pre, PlySpace::Trained, &notes), "converted.toml", dir.file(""));
+  const gen4d::Config d = converted(dir, p, ply, pre, notes);
   EXPECT_TRUE(has_note("PhysGaussian the y component"));
   EXPECT_TRUE(has_note("rpic_damping = 1.5: not honoured"));
   EXPECT_EQ(d.mpm.rpic_damping, 0);
@@ -669,13 +682,9 @@ TEST(PhysGaussianDeck, MetalDeckMaterialAndVelocityRotation) {
 TEST(PhysGaussianDeck, SandDeckColliderAndRelease) {
   TempDir dir;
   const PhysGaussianParams p = read_physgaussian_config(fixture("sand_collider.json"));
-  const SplatSet trained = splats_at(lattice(-1, 1, 5));
-  const std::string ply = dir.file("object.ply");
-  write_splats_ply(ply, trained);
-  const PhysGaussianPreprocessed pre = preprocess_physgaussian(read_splats_ply(ply), p);
+  const auto [ply, pre] = store_and_preprocess(dir, splats_at(lattice(-1, 1, 5)), p);
   std::vector<std::string> notes;
-  const gen4d::Config c = gen4d::parse_deck(
-      physgaussian_to_deck(p, ply, pre, PlySpace::Trained, &notes), "converted.toml", dir.file(""));
+  const gen4d::Config c = converted(dir, p, ply, pre, notes);
   EXPECT_EQ(c.material.model, "drucker_prager");
   EXPECT_EQ(c.material.params.at("friction_angle"), 30);
   EXPECT_EQ(c.material.params.count("cohesion"), 0u);
@@ -736,9 +745,7 @@ TEST(PhysGaussianDeck, EveryMaterialMaps) {
     p.plastic_viscosity = 8;
     const PhysGaussianPreprocessed pre = preprocess_physgaussian(trained, p);
     std::vector<std::string> notes;
-    const gen4d::Config c =
-        gen4d::parse_deck(physgaussian_to_deck(p, ply, pre, PlySpace::Trained, &notes),
-                          "converted.toml", dir.file(""));
+    const gen4d::Config c = converted(dir, p, ply, pre, notes);
     EXPECT_EQ(c.material.model, m.model) << m.material;
     if (m.material == "foam") {
       EXPECT_DOUBLE_EQ(c.material.params.at("yield_stress"), 300 / std::sqrt(3.0));

@@ -35,10 +35,10 @@
 
 #include "core/Deck.hpp"
 #include "core/DeckText.hpp"
-#include "diagnose/BlockLDLT.hpp"
+#include "forward/BlockLDLT.hpp"
 #include "diagnose/Effects.hpp"
-#include "diagnose/ElementKernel.hpp"
-#include "diagnose/Model.hpp"
+#include "forward/ElementKernel.hpp"
+#include "diagnose/Forward.hpp"
 #include "validation/DriverCommon.hpp"
 
 namespace gen4d {

@@ -17,7 +17,7 @@
 
 #include "core/Config.hpp"
 #include "core/Error.hpp"
-#include "diagnose/Model.hpp"
+#include "diagnose/Forward.hpp"
 #include "diagnose/Recording.hpp"
 
 namespace gen4d::driver {

@@ -52,7 +52,7 @@
 #include "core/Error.hpp"
 #include "core/Log.hpp"
 #include "diagnose/Effects.hpp"
-#include "diagnose/MpmModel.hpp"
+#include "diagnose/Forward.hpp"
 #include "diagnose/Recording.hpp"
 #include "validation/BlindCases.hpp"
 #include "validation/DriverCommon.hpp"

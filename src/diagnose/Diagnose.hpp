@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/Config.hpp"
+#include "diagnose/Forward.hpp"
 #include "parallel/Comm.hpp"
 
 namespace gen4d::diagnose {
@@ -33,7 +34,6 @@ double estimate_noise(const std::vector<const Channel*>& channels);
 
 struct Observations;
 struct Prediction;
-struct Physics;
 struct RefinementCheck;
 //! The model's own spatial discretisation error (collective over comm): the calibrated
 //! baseline rerun on the deck's body voxelized at voxel_size / 2, its E refitted to the h run's

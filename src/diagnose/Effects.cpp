@@ -30,6 +30,20 @@ std::vector<Physics> deck_baseline(const EffectContext& c, double shift_nu, bool
   return {at_deck};
 }
 
+CoefficientEffect::CoefficientEffect(EffectInfo info, std::vector<double ModelTerms::*> fields)
+    : EffectBase(std::move(info)), fields_(std::move(fields)) {}
+
+std::vector<double> CoefficientEffect::absent_terms() const {
+  const ModelTerms null;
+  std::vector<double> v;
+  for (double ModelTerms::*f : fields_) v.push_back(null.*f);
+  return v;
+}
+
+void CoefficientEffect::add_terms(const std::vector<double>& v, ModelTerms& t) const {
+  for (std::size_t i = 0; i < fields_.size(); ++i) t.*fields_[i] = v[i];
+}
+
 }  // namespace effects
 
 namespace {
@@ -40,7 +54,7 @@ std::vector<std::unique_ptr<Effect>>& library() {
 }
 
 //! Position of `e` in the library (its size for an effect not in it).
-std::size_t library_index(const Effect* e) {
+std::size_t library_index(const TermSource* e) {
   const auto& lib = library();
   for (std::size_t i = 0; i < lib.size(); ++i)
     if (lib[i].get() == e) return i;
@@ -95,14 +109,13 @@ void set_effect_terms(Physics& ph, const Effect& effect, std::vector<double> ter
   list.insert(pos, AppliedEffect{&effect, std::move(terms)});
 }
 
-void set_effect_terms(Physics& ph, const std::string& name, std::vector<double> terms) {
-  set_effect_terms(ph, find_effect(name), std::move(terms));
+void EffectBase::apply(const std::string&, const std::vector<double>& p, const EffectContext&,
+                       Physics& ph) const {
+  set_effect_terms(ph, *this, p);
 }
 
-ModelTerms model_terms(const Physics& ph) {
-  ModelTerms t;
-  for (const auto& a : ph.effects) a.effect->add_terms(a.terms, t);
-  return t;
+void set_effect_terms(Physics& ph, const std::string& name, std::vector<double> terms) {
+  set_effect_terms(ph, find_effect(name), std::move(terms));
 }
 
 }  // namespace gen4d::diagnose

@@ -3,16 +3,17 @@
 //! probes derived from the scene, the signature it leaves in a recording, and the terms it
 //! adds to the forward models (add_terms: coefficients and node forces in a ModelTerms).
 //
-// Adding an effect: one file effects/<Name>.cpp defining a class derived from Effect and its
-// factory, and one line in the list of effects/Library.cpp. Names are what `--effects` and
-// report.json use.
+// Adding an effect: one file effects/<Name>.cpp defining a class derived from EffectBase (or
+// effects::CoefficientEffect) and its factory, and one line in the list of effects/Library.cpp.
+// Names are what `--effects` and report.json use.
 #pragma once
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
-#include "diagnose/Model.hpp"
+#include "diagnose/Forward.hpp"
 
 namespace gen4d::diagnose {
 
@@ -42,10 +43,8 @@ struct ParamSpec {
   double scale = 1;  //!< linear parameters: typical magnitude, natural units
 };
 
-class Effect {
+class Effect : public TermSource {
  public:
-  virtual ~Effect() = default;
-  virtual std::string name() const = 0;
   //! One line: what the effect adds to the model.
   virtual std::string summary() const = 0;
   //! What it does to a recording (amplitude decay, frequency shift, ...).
@@ -80,8 +79,6 @@ class Effect {
   //! Term values (AppliedEffect::terms) that leave the deck's physics as it is: an entry with
   //! these is dropped from Physics::effects. Empty: any entry changes the physics.
   virtual std::vector<double> absent_terms() const { return {}; }
-  //! The forward models' hook: adds the effect's terms with values `terms` to t (once per run).
-  virtual void add_terms(const std::vector<double>& /*terms*/, ModelTerms& /*t*/) const {}
   //! Free choices beyond the continuous parameters, counted in BIC (region, law).
   virtual int discrete_dof() const { return 0; }
   //! True when the effect makes forward runs several times slower (a return map per Gauss
@@ -101,6 +98,32 @@ class Effect {
   virtual std::vector<BoxRegion> start_regions(const EffectContext&) const { return {}; }
 };
 
+//! What an effect says of itself.
+struct EffectInfo {
+  std::string name;       //!< what `--effects` and report.json call it
+  std::string summary;    //!< Effect::summary
+  std::string signature;  //!< Effect::signature
+};
+
+//! The shared form of an effect: its EffectInfo, and by default its parameters as its term
+//! values (apply) with the absent terms as their null values.
+class EffectBase : public Effect {
+ public:
+  explicit EffectBase(EffectInfo info) : info_(std::move(info)) {}
+  std::string name() const final { return info_.name; }
+  std::string summary() const final { return info_.summary; }
+  std::string signature() const final { return info_.signature; }
+  std::vector<double> null_values(const EffectContext&, const std::string&) const override {
+    return absent_terms();
+  }
+  //! Sets the term values p.
+  void apply(const std::string& variant, const std::vector<double>& p, const EffectContext& c,
+             Physics& ph) const override;
+
+ private:
+  EffectInfo info_;
+};
+
 //! Every registered effect, in a fixed order: effects/Library.cpp's list, then any added by
 //! add_effect.
 const std::vector<std::unique_ptr<Effect>>& effect_library();
@@ -112,8 +135,6 @@ std::vector<double> effect_terms(const Physics& ph, const Effect& effect);
 void set_effect_terms(Physics& ph, const Effect& effect, std::vector<double> terms);
 //! set_effect_terms for the effect called `name`.
 void set_effect_terms(Physics& ph, const std::string& name, std::vector<double> terms);
-//! What ph's applied effects add to a run (each effect's add_terms, in library order).
-ModelTerms model_terms(const Physics& ph);
 //! The effect called `name`; InputError listing the known names otherwise.
 const Effect& find_effect(const std::string& name);
 std::vector<std::string> effect_names();

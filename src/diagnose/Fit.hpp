@@ -10,7 +10,7 @@
 #include <utility>
 #include <vector>
 
-#include "diagnose/Model.hpp"
+#include "diagnose/Forward.hpp"
 #include "parallel/Comm.hpp"
 
 namespace gen4d::diagnose {

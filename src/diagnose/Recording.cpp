@@ -533,6 +533,20 @@ void write_kind(const Recording& rec, ChannelKind kind, const std::string& path)
   write_atomically(path, out);
 }
 
+//! The earliest of the channels' first sample times (last: the latest of their last ones); 0
+//! without samples.
+double time_bound(const std::vector<Channel>& channels, bool last) {
+  double t = 0;
+  bool first = true;
+  for (const Channel& c : channels) {
+    if (c.t.empty()) continue;
+    const double ct = last ? c.t.back() : c.t.front();
+    t = first ? ct : last ? std::max(t, ct) : std::min(t, ct);
+    first = false;
+  }
+  return t;
+}
+
 }  // namespace
 
 std::size_t Recording::samples() const {
@@ -542,25 +556,11 @@ std::size_t Recording::samples() const {
 }
 
 double Recording::t_begin() const {
-  double t = 0;
-  bool first = true;
-  for (const Channel& c : channels) {
-    if (c.t.empty()) continue;
-    t = first ? c.t.front() : std::min(t, c.t.front());
-    first = false;
-  }
-  return t;
+  return time_bound(channels, false);
 }
 
 double Recording::t_end() const {
-  double t = 0;
-  bool first = true;
-  for (const Channel& c : channels) {
-    if (c.t.empty()) continue;
-    t = first ? c.t.back() : std::max(t, c.t.back());
-    first = false;
-  }
-  return t;
+  return time_bound(channels, true);
 }
 
 const char* id_column(ChannelKind kind) {

@@ -102,9 +102,29 @@ std::tuple<bool, long, std::size_t> rank_of(const State& s, std::size_t i) {
                          screened[i].z.size());
 }
 
-}  // namespace
+//! Up to opt.refit effects not in `skip`, by their best screened variant (positive gain).
+std::vector<std::string> next_effects(const State& s, const std::vector<std::string>& skip) {
+  std::vector<std::string> out;
+  for (const Candidate& c : s.screened)
+    if (c.screen_gain > 0 && static_cast<int>(out.size()) < s.opt.refit &&
+        std::find(skip.begin(), skip.end(), c.effect) == skip.end() &&
+        std::find(out.begin(), out.end(), c.effect) == out.end())
+      out.push_back(c.effect);
+  return out;
+}
 
-namespace {
+//! The screened variants (positive gain) of `effects`, as indices into s.screened, in refit
+//! order (rank_of).
+std::vector<std::size_t> refit_order(const State& s, const std::vector<std::string>& effects) {
+  std::vector<std::size_t> out;
+  for (std::size_t i = 0; i < s.screened.size(); ++i)
+    if (s.screened[i].screen_gain > 0 &&
+        std::find(effects.begin(), effects.end(), s.screened[i].effect) != effects.end())
+      out.push_back(i);
+  std::stable_sort(out.begin(), out.end(),
+                   [&](std::size_t a, std::size_t b) { return rank_of(s, a) < rank_of(s, b); });
+  return out;
+}
 
 //! A passing fit that explains no more held-out chi-square than the discretisation check's error
 //! (D.refinement) is not kept.
@@ -128,9 +148,7 @@ void plan_refits(State& s) {
   const Observations& obs = s.obs;
   const LsqResult& base = s.base;
   const double chi2_0 = s.chi2_0;
-  const DiagnoseOptions& opt = s.opt;
   const double N = s.N;
-  const std::vector<Candidate>& screened = s.screened;
   std::vector<std::string>& chosen = s.chosen;
   std::vector<std::size_t>& todo = s.todo;
   s.lnN = std::log(std::max(N, 2.0));
@@ -140,18 +158,8 @@ void plan_refits(State& s) {
   // better. Variants with fewer parameters go first, and a variant that contains them (Rayleigh
   // contains mass and stiffness) starts from the best of their optima, so it can only improve on
   // them.
-  for (const Candidate& c : screened)
-    if (c.screen_gain > 0 && static_cast<int>(chosen.size()) < opt.refit &&
-        std::find(chosen.begin(), chosen.end(), c.effect) == chosen.end())
-      chosen.push_back(c.effect);
-  for (std::size_t i = 0; i < screened.size(); ++i)
-    if (screened[i].screen_gain > 0 &&
-        std::find(chosen.begin(), chosen.end(), screened[i].effect) != chosen.end())
-      todo.push_back(i);
-  // Refit order: by screening rank, slow effects last (a passing fit's chi-square then bars them
-  // early when they cannot compete), and within an effect fewer parameters first.
-  std::stable_sort(todo.begin(), todo.end(),
-                   [&](std::size_t a, std::size_t b) { return rank_of(s, a) < rank_of(s, b); });
+  chosen = next_effects(s, {});
+  todo = refit_order(s, chosen);
   // Candidates are scored by their noise-weighted held-out chi-square (the training one when
   // nothing is held out), which weighs markers and accelerometers by their noise.
   s.has_holdout = obs.size() > static_cast<std::size_t>(s.ntrain);
@@ -166,22 +174,15 @@ void plan_refits(State& s) {
 void misfit_budget_check(State& s) {
   const Observations& obs = s.obs;
   Diagnosis& D = s.D;
-  const double t_free = s.t_free;
   const LsqResult& base = s.base;
-  const DiagnoseOptions& opt = s.opt;
-  const bool has_holdout = s.has_holdout;
   const std::vector<char>& scored = *s.scored;
-  const std::vector<std::array<double, 3>>& channel_X = s.channel_X;
-  const Config& cfg = s.cfg;
-  MPI_Comm comm = s.comm;
-  const Physics& calibrated = s.calibrated;
   for (const Channel& ch : s.rec.channels) s.channel_X.push_back(ch.X);
   D.budget = misfit_budget(obs, base.pred, scored);
   // The bound holds for values the fits do not see; fitted ones an effect can overfit.
-  D.budget.evaluated = D.budget.evaluated && has_holdout;
-  if (opt.refinement_check && D.budget.evaluated) {
-    D.refinement = refinement_check(comm, cfg, obs, channel_X, calibrated, base.pred, scored,
-                                    t_free, D.budget.bound);
+  D.budget.evaluated = D.budget.evaluated && s.has_holdout;
+  if (s.opt.refinement_check && D.budget.evaluated) {
+    D.refinement = refinement_check(s.comm, s.cfg, obs, s.channel_X, s.calibrated, base.pred,
+                                    scored, s.t_free, D.budget.bound);
     D.budget.exhausted =
         D.refinement.done && !D.refinement.upper_bound && D.refinement.chi2 >= D.budget.bound;
     log::info(
@@ -203,16 +204,12 @@ void misfit_budget_check(State& s) {
 //! is then refitted too (its region refined by forward runs), unless a refitted effect already
 //! removes most of the held-out misfit.
 void heterogeneity_too(State& s) {
-  Diagnosis& D = s.D;
   const std::vector<Candidate>& screened = s.screened;
-  std::vector<Candidate>& variant_fits = s.variant_fits;
   std::vector<std::string>& chosen = s.chosen;
-  const double score0 = s.score0;
-  const double region_share = s.region_share;
   double best_gain = 0;
-  for (const Candidate& c : variant_fits)
-    best_gain = std::max(best_gain, 1 - std::sqrt(score(s, c) / score0));
-  if (!D.budget.exhausted && region_share >= kRegionRefitShare &&
+  for (const Candidate& c : s.variant_fits)
+    best_gain = std::max(best_gain, 1 - std::sqrt(score(s, c) / s.score0));
+  if (!s.D.budget.exhausted && s.region_share >= kRegionRefitShare &&
       best_gain < kRegionRefitBelowGain &&
       std::find(chosen.begin(), chosen.end(), "heterogeneity") == chosen.end()) {
     for (std::size_t i = 0; i < screened.size(); ++i)
@@ -224,7 +221,7 @@ void heterogeneity_too(State& s) {
               "explains {:.1f} % of "
               "chi2 (>= {:g} %) and the best refit lowers the held-out "
               "rms by {:.1f} % (< {:g} %)",
-              100 * region_share, 100 * kRegionRefitShare, 100 * best_gain,
+              100 * s.region_share, 100 * kRegionRefitShare, 100 * best_gain,
               100 * kRegionRefitBelowGain);
         }
         refit_one(s, i);
@@ -276,46 +273,31 @@ void discretisation_gate(State& s) {
 //! (as many as --refit) are refitted as well, under the same rules.
 void deeper_refits(State& s) {
   Diagnosis& D = s.D;
-  const DiagnoseOptions& opt = s.opt;
-  const std::vector<Candidate>& screened = s.screened;
   std::vector<Candidate>& variant_fits = s.variant_fits;
   std::vector<std::string>& chosen = s.chosen;
-  const bool has_holdout = s.has_holdout;
-  const std::vector<char>& scored = *s.scored;
-  if (D.refinement.done && has_holdout) {
+  if (D.refinement.done && s.has_holdout) {
     double best_score = std::numeric_limits<double>::infinity();
     for (const Candidate& c : variant_fits)
       if (c.passes) best_score = std::min(best_score, score(s, c));
     double n_scored = 0;
-    for (char m : scored) n_scored += m ? 1 : 0;
+    for (char m : (*s.scored)) n_scored += m ? 1 : 0;
     const double accounted = n_scored + D.refinement.chi2;
     std::vector<std::string> more;
     if (std::isfinite(best_score) && best_score > kDeeperRefitFactor * accounted)
-      for (const Candidate& c : screened)
-        if (c.screen_gain > 0 && static_cast<int>(more.size()) < opt.refit &&
-            std::find(chosen.begin(), chosen.end(), c.effect) == chosen.end() &&
-            std::find(more.begin(), more.end(), c.effect) == more.end())
-          more.push_back(c.effect);
+      more = next_effects(s, chosen);
     if (!more.empty()) {
       std::string names;
       for (const auto& m : more) names += (names.empty() ? "" : ", ") + m;
       log::info(
           "  the best refit leaves held-out chi2 {:.4g}, over {:g} x "
           "what the noise and the cells "
-          "account for ({:.4g}): refitting the next screened effects as "
+          "account for ({:.4g}): refitting the next s.screened effects as "
           "well: {}",
           best_score, kDeeperRefitFactor, accounted, names);
       D.deeper_refits = more;
       chosen.insert(chosen.end(), more.begin(), more.end());
-      std::vector<std::size_t> next;
-      for (std::size_t i = 0; i < screened.size(); ++i)
-        if (screened[i].screen_gain > 0 &&
-            std::find(more.begin(), more.end(), screened[i].effect) != more.end())
-          next.push_back(i);
-      std::stable_sort(next.begin(), next.end(),
-                       [&](std::size_t a, std::size_t b) { return rank_of(s, a) < rank_of(s, b); });
       const std::size_t first_new = variant_fits.size();
-      for (std::size_t i : next) refit_one(s, i);
+      for (std::size_t i : refit_order(s, more)) refit_one(s, i);
       for (std::size_t k = first_new; k < variant_fits.size(); ++k)
         keep_above_discretisation(s, variant_fits[k]);
     }

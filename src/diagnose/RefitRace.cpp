@@ -21,28 +21,14 @@ namespace gen4d::diagnose {
 //! The crossing starts are used when the best of them already removes kRatioStartShare of the
 //! calibrated chi-square; else they join the race as lanes of their own.
 void ratio_starts(State& s, RefitWork& w, StartSet& S) {
-  const Observations& obs = s.obs;
-  EffectContext& ctx = s.ctx;
-  Evaluator& ev = *s.ev;
-  const ModalFrequencies& modes = s.modes;
-  const double r_obs = s.r_obs;
-  const bool two_modes = s.two_modes;
-  const double chi2_0 = s.chi2_0;
-  Candidate& c = w.c;
   const std::vector<ParamSpec>& specs = w.specs;
   LsqProblem& pr = w.pr;
   auto& regions = S.regions;
   auto& starts = S.starts;
   auto& start_region = S.start_region;
-  auto& probe_s = S.probe_s;
-  auto& w_cal = S.w_cal;
   auto& matched = S.matched;
   auto& matched_region = S.matched_region;
-  auto& n_crossing = S.n_crossing;
-  auto& crossing_runs = S.crossing_runs;
-  auto& race_crossings = S.race_crossings;
-  auto& race_crossing_region = S.race_crossing_region;
-  if (!(two_modes)) return;
+  if (!s.two_modes) return;
   std::vector<Physics> batch_s;
   std::vector<Crossing> cand;
   std::vector<std::size_t> cand_region;
@@ -53,34 +39,34 @@ void ratio_starts(State& s, RefitWork& w, StartSet& S) {
     std::vector<ModePoint> pts;
     while (k1 < starts.size() && start_region[k1] == start_region[k] &&
            starts[k1][1] == starts[k][1]) {
-      const ModePoint mp = mode_point(s, probe_s[k1], starts[k1][2]);
+      const ModePoint mp = mode_point(s, S.probe_s[k1], starts[k1][2]);
       if (mp.ok) pts.push_back(mp);
       ++k1;
     }
-    const auto crossings = ratio_crossings(pts, r_obs);
+    const auto crossings = ratio_crossings(pts, s.r_obs);
     // A region whose probes never reach the recorded ratio keeps its grid starts, each matched on
     // omega1.
     if (crossings.empty())
       for (std::size_t q = k; q < k1; ++q) {
         fallback.push_back(starts[q]);
-        fallback.back()[0] = match_frequency(s, starts[q][0], w_cal, probe_s[q]);
+        fallback.back()[0] = match_frequency(s, starts[q][0], S.w_cal, S.probe_s[q]);
         fallback_region.push_back(start_region[q]);
       }
     for (const Crossing& x : crossings) {
       Crossing xc = x;
       xc.z = starts[k];
       xc.z[2] = x.zp;
-      xc.z[0] = starts[k][0] + 2 * (std::log(modes.omega1) - x.log_w1);
+      xc.z[0] = starts[k][0] + 2 * (std::log(s.modes.omega1) - x.log_w1);
       cand.push_back(xc);
       cand_region.push_back(start_region[k]);
     }
     k = k1;
   }
   for (std::size_t q = 0; q < cand.size(); ++q) {
-    ctx.region = regions[cand_region[q]];
+    s.ctx.region = regions[cand_region[q]];
     batch_s.push_back(pr.physics(cand[q].z));
   }
-  const auto probe_m = ev.run(batch_s);
+  const auto probe_m = s.ev->run(batch_s);
   for (std::size_t q = 0; q < cand.size(); ++q) {
     std::vector<double> z = cand[q].z;
     const ModePoint mp = mode_point(s, probe_m[q], z[2]);
@@ -97,31 +83,31 @@ void ratio_starts(State& s, RefitWork& w, StartSet& S) {
     matched_region.push_back(cand_region[q]);
   }
   // The crossing starts are used when the best of them already removes at least half of the
-  // calibrated chi-square: in phase on both modes, a start in the true region's basin does, and
+  // calibrated chi-square: in phase on both s.modes, a start in the true region's basin does, and
   // when none does, the region is not among them and the grid starts race through continuation
   // windows instead.
   if (!matched.empty()) {
     std::vector<Physics> batch_c;
     for (std::size_t q = 0; q < matched.size(); ++q) {
-      ctx.region = regions[matched_region[q]];
+      s.ctx.region = regions[matched_region[q]];
       batch_c.push_back(pr.physics(matched[q]));
     }
-    auto runs_c = ev.run(batch_c);
+    auto runs_c = s.ev->run(batch_c);
     double best_c = 1e300;
     for (const Prediction& p : runs_c)
-      if (p.ok) best_c = std::min(best_c, weighted_residual(obs, p, obs.train).squaredNorm());
-    if (!(best_c < kRatioStartShare * chi2_0)) {
+      if (p.ok) best_c = std::min(best_c, weighted_residual(s.obs, p, s.obs.train).squaredNorm());
+    if (!(best_c < kRatioStartShare * s.chi2_0)) {
       log::info(
           "  {} ratio starts: the best fits chi2 {:.4g} of the "
           "calibrated {:.4g} (needs < "
           "{:g}x): the grid starts race instead",
-          c.effect, best_c, chi2_0, kRatioStartShare);
-      race_crossings = std::move(matched);
-      race_crossing_region = std::move(matched_region);
+          w.c.effect, best_c, s.chi2_0, kRatioStartShare);
+      S.race_crossings = std::move(matched);
+      S.race_crossing_region = std::move(matched_region);
       matched.clear();
       matched_region.clear();
     } else {
-      crossing_runs = std::move(runs_c);
+      S.crossing_runs = std::move(runs_c);
     }
   }
   if (!matched.empty()) {
@@ -129,8 +115,8 @@ void ratio_starts(State& s, RefitWork& w, StartSet& S) {
         "  {} starts: {} ratio crossings of {} grid probes (recorded "
         "ratio {:.4f}), {} grid "
         "starts of regions without one",
-        c.effect, matched.size(), starts.size(), r_obs, fallback.size());
-    n_crossing = matched.size();
+        w.c.effect, matched.size(), starts.size(), s.r_obs, fallback.size());
+    S.n_crossing = matched.size();
     matched.insert(matched.end(), fallback.begin(), fallback.end());
     matched_region.insert(matched_region.end(), fallback_region.begin(), fallback_region.end());
     starts = matched;

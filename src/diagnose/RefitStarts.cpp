@@ -58,30 +58,21 @@ namespace {
 //! located box and in the effect's start_regions() (a region the map may miss; one equal to the
 //! located box is not added twice). Their runs are made.
 void grid_starts(State& s, RefitWork& w, StartSet& S) {
-  const Observations& obs = s.obs;
   const ForwardModel& model = *s.model;
   Diagnosis& D = s.D;
   EffectContext& ctx = s.ctx;
-  Evaluator& ev = *s.ev;
-  const double t_free = s.t_free;
-  const LsqResult& base = s.base;
-  const Effect& e = *w.e;
   const std::vector<ParamSpec>& specs = w.specs;
-  LsqProblem& pr = w.pr;
   std::vector<double>& z0 = w.z0;
-  const std::vector<double>& grid = w.grid;
   auto& regions = S.regions;
   auto& located_is_start = S.located_is_start;
   auto& located = S.located;
   auto& starts = S.starts;
-  auto& start_region = S.start_region;
-  auto& probe_s = S.probe_s;
-  S.w_cal = dominant_omega(obs, base.pred.y, t_free);
+  S.w_cal = dominant_omega(s.obs, s.base.pred.y, s.t_free);
   // A start region that is the located box (to a millionth of a voxel: the two are computed
   // differently) is not added twice; the located box then also starts at the deck's nu, as the
   // start region would have.
   regions = {ctx.region};
-  for (const BoxRegion& b : e.start_regions(ctx)) {
+  for (const BoxRegion& b : w.e->start_regions(ctx)) {
     bool same = true;
     for (int a = 0; a < 3; ++a)
       same = same && std::abs(b.lo[a] - ctx.region.lo[a]) < 1e-6 * model.h() &&
@@ -100,16 +91,16 @@ void grid_starts(State& s, RefitWork& w, StartSet& S) {
                     (located_is_start && D.poisson_nominal != z0[1])))
       nus.push_back(D.poisson_nominal);
     for (double nu : nus)
-      for (double f : grid) {
+      for (double f : w.grid) {
         std::vector<double> z = z0;
         z[1] = nu;
         z[2] = to_z(specs[0], std::clamp(f, specs[0].lo, specs[0].hi));
         starts.push_back(z);
-        start_region.push_back(ri);
-        batch_s.push_back(pr.physics(z));
+        S.start_region.push_back(ri);
+        batch_s.push_back(w.pr.physics(z));
       }
   }
-  probe_s = ev.run(batch_s);
+  S.probe_s = s.ev->run(batch_s);
 }
 
 //! Deck starts. The calibration can take most of a soft (stiff) region into E and nu, far from
@@ -123,30 +114,24 @@ void deck_starts(State& s, RefitWork& w, StartSet& S) {
   const Observations& obs = s.obs;
   Diagnosis& D = s.D;
   EffectContext& ctx = s.ctx;
-  Evaluator& ev = *s.ev;
   const double t_free = s.t_free;
-  Candidate& c = w.c;
   const std::vector<ParamSpec>& specs = w.specs;
   LsqProblem& pr = w.pr;
   std::vector<double>& z0 = w.z0;
   const std::vector<double>& grid = w.grid;
   auto& regions = S.regions;
-  auto& located = S.located;
   auto& starts = S.starts;
-  auto& start_region = S.start_region;
-  auto& probe_s = S.probe_s;
-  auto& deck_z = S.deck_z;
   auto& deck_region = S.deck_region;
   if (!(regions.size() > 1 && (std::abs(z0[0] - std::log(D.youngs_nominal)) > kDeckStartShiftE ||
                                std::abs(z0[1] - D.poisson_nominal) > kDeckStartShiftNu)))
     return;
   const double lw_obs = std::log(ctx.omega);
   // A probe whose grid start ran at the calibrated E with the deck's nu (every start region's; the
-  // located box's where it also starts at the deck's nu) is not rerun: a linear body's frequencies
-  // scale as sqrt(E) at a fixed factor, nu and density, so its omega is taken from that run,
-  // scaled. The crossing found is run anyway (below), so any departure (the load's nonlinearity)
-  // costs only the secant's correction. The others (a grid start that failed, at a softer E, or
-  // none at the deck's nu) are run.
+  // S.located box's where it also starts at the deck's nu) is not rerun: a linear body's
+  // frequencies scale as sqrt(E) at a fixed factor, nu and density, so its omega is taken from that
+  // run, scaled. The crossing found is run anyway (below), so any departure (the load's
+  // nonlinearity) costs only the secant's correction. The others (a grid start that failed, at a
+  // softer E, or none at the deck's nu) are run.
   std::vector<std::vector<double>> zd;
   std::vector<double> lw_d;  // log omega per (region, factor); NaN: failed
   std::vector<std::size_t> to_run;
@@ -161,8 +146,9 @@ void deck_starts(State& s, RefitWork& w, StartSet& S) {
       z[2] = to_z(specs[0], std::clamp(f, specs[0].lo, specs[0].hi));
       double lw = std::nan("");
       for (std::size_t k = 0; k < starts.size() && std::isnan(lw); ++k)
-        if (start_region[k] == ri && starts[k][1] == z[1] && starts[k][2] == z[2] && probe_s[k].ok)
-          lw = std::log(dominant_omega(obs, probe_s[k].y, t_free)) + 0.5 * (z[0] - starts[k][0]);
+        if (S.start_region[k] == ri && starts[k][1] == z[1] && starts[k][2] == z[2] &&
+            S.probe_s[k].ok)
+          lw = std::log(dominant_omega(obs, S.probe_s[k].y, t_free)) + 0.5 * (z[0] - starts[k][0]);
       if (std::isnan(lw)) {
         to_run.push_back(zd.size());
         batch_d.push_back(pr.physics(z));
@@ -173,7 +159,7 @@ void deck_starts(State& s, RefitWork& w, StartSet& S) {
     }
   }
   {
-    const auto probe_d = ev.run(batch_d);
+    const auto probe_d = s.ev->run(batch_d);
     for (std::size_t q = 0; q < to_run.size(); ++q)
       if (probe_d[q].ok) lw_d[to_run[q]] = std::log(dominant_omega(obs, probe_d[q].y, t_free));
   }
@@ -220,7 +206,7 @@ void deck_starts(State& s, RefitWork& w, StartSet& S) {
     ctx.region = regions[deck_region[q]];
     batch_d.push_back(pr.physics(cross[q].z));
   }
-  const auto probe_x = ev.run(batch_d);
+  const auto probe_x = s.ev->run(batch_d);
   std::vector<std::size_t> kept_region;
   for (std::size_t q = 0; q < cross.size(); ++q) {
     std::vector<double> z = cross[q].z;
@@ -244,16 +230,16 @@ void deck_starts(State& s, RefitWork& w, StartSet& S) {
         near ? fmt::format(" -> {} {:.4g}", specs[0].name, from_z(specs[0], z[2]))
              : std::string(": dropped"));
     if (!near) continue;
-    deck_z.push_back(z);
+    S.deck_z.push_back(z);
     kept_region.push_back(deck_region[q]);
   }
   deck_region = kept_region;
   log::info(
       "  {} deck starts (the calibration moved E {:+.0f} %, nu {:+.3f}): "
       "{} of {} regions",
-      c.effect, 100 * (std::exp(z0[0]) / D.youngs_nominal - 1), z0[1] - D.poisson_nominal,
-      deck_z.size(), regions.size());
-  ctx.region = located;
+      w.c.effect, 100 * (std::exp(z0[0]) / D.youngs_nominal - 1), z0[1] - D.poisson_nominal,
+      S.deck_z.size(), regions.size());
+  ctx.region = S.located;
 }
 
 }  // namespace

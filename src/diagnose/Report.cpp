@@ -1,6 +1,6 @@
 #include "diagnose/Report.hpp"
 
-#include "diagnose/ElementKernel.hpp"
+#include "forward/ElementKernel.hpp"
 
 #include <fmt/format.h>
 
@@ -594,8 +594,26 @@ std::pair<int, int> map_axes(const BoxRegion& b) {
   return {std::min(ax[0], ax[1]), std::max(ax[0], ax[1])};
 }
 
-void plots(const std::string& dir, const Diagnosis& d, const Observations& obs) {
+//! Adds the outline of box, projected on axes a, b, to m in colour rgb.
+void outline(io::ScatterMap& m, const BoxRegion& box, int a, int b, io::Rgb rgb) {
+  m.rects.push_back({box.lo[a], box.lo[b], box.hi[a], box.hi[b]});
+  m.rect_colors.push_back(rgb);
+}
+
+//! A map of the body projected on axes a, b: titles and its outline.
+io::ScatterMap body_map(const Diagnosis& d, int a, int b, std::string title,
+                        std::string colorbar_label) {
   const char* axis_name = "XYZ";
+  io::ScatterMap m;
+  m.title = std::move(title);
+  m.xlabel = std::string(1, axis_name[a]) + " (m)";
+  m.ylabel = std::string(1, axis_name[b]) + " (m)";
+  m.colorbar_label = std::move(colorbar_label);
+  outline(m, d.body, a, b, {90, 90, 90});
+  return m;
+}
+
+void plots(const std::string& dir, const Diagnosis& d, const Observations& obs) {
   {
     io::LineChart c;
     c.title = "Residual energy over time (1 = noise level)";
@@ -617,45 +635,31 @@ void plots(const std::string& dir, const Diagnosis& d, const Observations& obs) 
   }
   {
     const auto [a, b] = map_axes(d.body);
-    std::vector<io::ScatterMap> maps(2);
+    std::vector<io::ScatterMap> maps;
     for (int k = 0; k < 2; ++k) {
-      io::ScatterMap& m = maps[static_cast<std::size_t>(k)];
-      m.title =
-          k == 0 ? "Marker rms error, calibrated baseline" : "Marker rms error, selected model";
-      m.xlabel = std::string(1, axis_name[a]) + " (m)";
-      m.ylabel = std::string(1, axis_name[b]) + " (m)";
-      m.colorbar_label = "rms (m)";
+      io::ScatterMap& m = maps.emplace_back(body_map(
+          d, a, b,
+          k == 0 ? "Marker rms error, calibrated baseline" : "Marker rms error, selected model",
+          "rms (m)"));
       for (std::size_t c = 0; c < d.channel_ids.size(); ++c) {
         m.x.push_back(d.channel_X[c][static_cast<std::size_t>(a)]);
         m.y.push_back(d.channel_X[c][static_cast<std::size_t>(b)]);
         m.value.push_back(k == 0 ? d.channel_rms_before[c] : d.channel_rms_after[c]);
         m.labels.push_back(d.channel_ids[c]);
       }
-      m.rects.push_back({d.body.lo[a], d.body.lo[b], d.body.hi[a], d.body.hi[b]});
-      m.rect_colors.push_back({90, 90, 90});
-      if (d.has_region) {
-        m.rects.push_back({d.region.lo[a], d.region.lo[b], d.region.hi[a], d.region.hi[b]});
-        m.rect_colors.push_back({220, 50, 50});
-      }
+      if (d.has_region) outline(m, d.region, a, b, {220, 50, 50});
     }
     io::share_color_scale(maps);
     io::write_scatter_maps(dir + "/marker_error.png", maps, 2, 700, 420);
     if (d.located && !d.block_center.empty()) {
-      io::ScatterMap m;
-      m.title = "Stiffness sensitivity (share of chi2 one super-voxel explains)";
-      m.xlabel = std::string(1, axis_name[a]) + " (m)";
-      m.ylabel = std::string(1, axis_name[b]) + " (m)";
-      m.colorbar_label = "share";
+      io::ScatterMap m = body_map(
+          d, a, b, "Stiffness sensitivity (share of chi2 one super-voxel explains)", "share");
       for (std::size_t i = 0; i < d.block_center.size(); ++i) {
         m.x.push_back(d.block_center[i][static_cast<std::size_t>(a)]);
         m.y.push_back(d.block_center[i][static_cast<std::size_t>(b)]);
         m.value.push_back(d.block_gain[i]);
       }
-      m.rects.push_back({d.body.lo[a], d.body.lo[b], d.body.hi[a], d.body.hi[b]});
-      m.rect_colors.push_back({90, 90, 90});
-      m.rects.push_back({d.located_region.lo[a], d.located_region.lo[b], d.located_region.hi[a],
-                         d.located_region.hi[b]});
-      m.rect_colors.push_back({220, 50, 50});
+      outline(m, d.located_region, a, b, {220, 50, 50});
       io::write_scatter_maps(dir + "/sensitivity.png", {m}, 1, 900, 420);
     }
   }

@@ -208,15 +208,7 @@ void runner_up(State& s) {
 void verdict(State& s) {
   const Observations& obs = s.obs;
   Diagnosis& D = s.D;
-  EffectContext& ctx = s.ctx;
-  const double t_free = s.t_free;
   const LsqResult& base = s.base;
-  const DiagnoseOptions& opt = s.opt;
-  const bool has_holdout = s.has_holdout;
-  const std::vector<char>& scored = *s.scored;
-  const std::vector<std::array<double, 3>>& channel_X = s.channel_X;
-  const Config& cfg = s.cfg;
-  MPI_Comm comm = s.comm;
   const Physics& calibrated = s.calibrated;
   const Candidate*& best = s.best;
   D.rms_after = D.rms_before;
@@ -228,10 +220,10 @@ void verdict(State& s) {
     // else it is physics outside the library, or an effect the screening ranked too low to refit.
     // The discretisation check decides, on voxels of 2h where their bound suffices.
     const double decide = D.budget.bound / kUnidentifiedFactor;
-    if (D.misfit && !D.budget.exhausted && has_holdout && opt.refinement_check) {
+    if (D.misfit && !D.budget.exhausted && s.has_holdout && s.opt.refinement_check) {
       if (!D.refinement.done || (D.refinement.upper_bound && D.refinement.chi2 >= decide)) {
-        D.refinement = refinement_check(comm, cfg, obs, channel_X, calibrated, base.pred, scored,
-                                        t_free, decide);
+        D.refinement = refinement_check(s.comm, s.cfg, obs, s.channel_X, calibrated, base.pred,
+                                        (*s.scored), s.t_free, decide);
         check_phase_done(s);
       }
       if (D.refinement.done && D.refinement.chi2 < decide) D.verdict = "missing_physics";
@@ -282,7 +274,7 @@ void verdict(State& s) {
     D.fitted_pred = best->pred;
     D.youngs_modulus = best->youngs_modulus;
     D.poisson_ratio = best->poisson_ratio;
-    if (D.effect == "heterogeneity") D.has_region = true, D.region = ctx.region;
+    if (D.effect == "heterogeneity") D.has_region = true, D.region = s.ctx.region;
   }
   if (D.fitted_pred.ok) {
     residual_noise(obs, D.fitted_pred, D.noise_fitted_position, D.noise_fitted_acceleration);

@@ -10,7 +10,7 @@
 #include <numeric>
 
 #include "core/Log.hpp"
-#include "diagnose/ElementKernel.hpp"
+#include "forward/ElementKernel.hpp"
 #include "diagnose/Pipeline.hpp"
 #include "parallel/Comm.hpp"
 

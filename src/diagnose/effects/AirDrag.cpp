@@ -31,15 +31,11 @@ class Drag final : public NodeForce {
   double linear_, quadratic_;
 };
 
-class AirDrag final : public Effect {
+class AirDrag final : public EffectBase {
  public:
-  std::string name() const override { return "air_drag"; }
-  std::string summary() const override {
-    return "surface drag per exposed area: -(linear v + quadratic |v| v)";
-  }
-  std::string signature() const override {
-    return "amplitude decay; quadratic part decays faster at large amplitude";
-  }
+  AirDrag()
+      : EffectBase({"air_drag", "surface drag per exposed area: -(linear v + quadratic |v| v)",
+                    "amplitude decay; quadratic part decays faster at large amplitude"}) {}
   std::vector<ParamSpec> params(const EffectContext& c, const std::string&) const override {
     const double b1 = unit_linear(c), b2 = b1 / std::max(c.max_speed, 1e-6);
     return {{"linear", "Pa s/m", 0.0, 25.0 * b1, false},
@@ -50,13 +46,6 @@ class AirDrag final : public Effect {
     return {{{b1, 0.0}, {0.0, b2}}};
   }
   bool scalable() const override { return true; }
-  std::vector<double> null_values(const EffectContext&, const std::string&) const override {
-    return {0, 0};
-  }
-  void apply(const std::string&, const std::vector<double>& p, const EffectContext&,
-             Physics& ph) const override {
-    set_effect_terms(ph, *this, {p[0], p[1]});
-  }
   std::vector<double> absent_terms() const override { return {0, 0}; }
   void add_terms(const std::vector<double>& v, ModelTerms& t) const override {
     t.node_forces.push_back(std::make_shared<Drag>(v[0], v[1]));

@@ -1,22 +1,19 @@
 //! Elastic (and viscous) support instead of a rigid clamp. Terms: {stiffness, damping} per
 //! unit clamp area.
-#include <limits>
-
 #include "diagnose/effects/Helpers.hpp"
 
 namespace gen4d::diagnose::effects {
 
 namespace {
 
-class ClampCompliance final : public Effect {
+class ClampCompliance final : public CoefficientEffect {
  public:
-  std::string name() const override { return "clamp_compliance"; }
-  std::string summary() const override {
-    return "the [[fixed]] nodes held by springs and dashpots per unit clamp area";
-  }
-  std::string signature() const override {
-    return "lower frequencies (mostly the first mode), motion at the support, mode-shape change";
-  }
+  ClampCompliance()
+      : CoefficientEffect(
+            {"clamp_compliance",
+             "the [[fixed]] nodes held by springs and dashpots per unit clamp area",
+             "lower frequencies (mostly the first mode), motion at the support, mode-shape change"},
+            {&ModelTerms::clamp_stiffness, &ModelTerms::clamp_damping}) {}
   std::vector<ParamSpec> params(const EffectContext& c, const std::string&) const override {
     // Stiffness from compliant (1e-3 E/h) to rigid (1e4 E/h, the null value). Damping up to
     // E/(h omega), a dashpot whose force at the dominant frequency is that of an E/h spring;
@@ -46,13 +43,6 @@ class ClampCompliance final : public Effect {
              Physics& ph) const override {
     if (p[0] < 0.999e4 * c.base.youngs_modulus / c.model->h())
       set_effect_terms(ph, *this, {p[0], p[1]});
-  }
-  std::vector<double> absent_terms() const override {
-    return {std::numeric_limits<double>::infinity(), 0};
-  }
-  void add_terms(const std::vector<double>& v, ModelTerms& t) const override {
-    t.clamp_stiffness = v[0];
-    t.clamp_damping = v[1];
   }
 };
 

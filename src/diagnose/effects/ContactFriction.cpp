@@ -7,15 +7,12 @@ namespace gen4d::diagnose::effects {
 
 namespace {
 
-class ContactFriction final : public Effect {
+class ContactFriction final : public EffectBase {
  public:
-  std::string name() const override { return "contact_friction"; }
-  std::string summary() const override {
-    return "a ground plane z = height (normal +z) with Coulomb friction";
-  }
-  std::string signature() const override {
-    return "motion stops or flattens below a level; decay while sliding on the ground";
-  }
+  ContactFriction()
+      : EffectBase({"contact_friction",
+                    "a ground plane z = height (normal +z) with Coulomb friction",
+                    "motion stops or flattens below a level; decay while sliding on the ground"}) {}
   std::vector<ParamSpec> params(const EffectContext& c, const std::string&) const override {
     const double a = std::max(c.amplitude, c.model->h());
     return {{"height", "m", c.lowest_point - 3 * a, c.lowest_point + 0.5 * a, false},
@@ -35,10 +32,6 @@ class ContactFriction final : public Effect {
   }
   std::vector<double> null_values(const EffectContext& c, const std::string&) const override {
     return {c.lowest_point - 3 * std::max(c.amplitude, c.model->h()), 0};
-  }
-  void apply(const std::string&, const std::vector<double>& p, const EffectContext&,
-             Physics& ph) const override {
-    set_effect_terms(ph, *this, {p[0], p[1]});
   }
   void add_terms(const std::vector<double>& v, ModelTerms& t) const override {
     t.planes.push_back({{0, 0, v[0]}, {0, 0, 1}, v[1]});

@@ -34,15 +34,12 @@ class DryFriction final : public NodeForce {
   double accel_;
 };
 
-class CoulombDamping final : public Effect {
+class CoulombDamping final : public EffectBase {
  public:
-  std::string name() const override { return "coulomb_damping"; }
-  std::string summary() const override {
-    return "dry friction: force m a_c opposing each node's velocity";
-  }
-  std::string signature() const override {
-    return "linear (amplitude-independent per cycle) decay, motion stops at a finite time";
-  }
+  CoulombDamping()
+      : EffectBase(
+            {"coulomb_damping", "dry friction: force m a_c opposing each node's velocity",
+             "linear (amplitude-independent per cycle) decay, motion stops at a finite time"}) {}
   std::vector<ParamSpec> params(const EffectContext& c, const std::string&) const override {
     return {
         {"friction_accel", "m/s^2", 0.0, c.omega * c.omega * std::max(c.amplitude, 1e-9), false}};
@@ -51,13 +48,6 @@ class CoulombDamping final : public Effect {
     return {{{0.02 * c.omega * c.omega * std::max(c.amplitude, 1e-9)}}};
   }
   bool scalable() const override { return true; }
-  std::vector<double> null_values(const EffectContext&, const std::string&) const override {
-    return {0};
-  }
-  void apply(const std::string&, const std::vector<double>& p, const EffectContext&,
-             Physics& ph) const override {
-    set_effect_terms(ph, *this, {p[0]});
-  }
   std::vector<double> absent_terms() const override { return {0}; }
   void add_terms(const std::vector<double>& v, ModelTerms& t) const override {
     t.node_forces.push_back(std::make_shared<DryFriction>(v[0]));

@@ -5,15 +5,13 @@ namespace gen4d::diagnose::effects {
 
 namespace {
 
-class Damping final : public Effect {
+class Damping final : public CoefficientEffect {
  public:
-  std::string name() const override { return "damping"; }
-  std::string summary() const override {
-    return "Rayleigh damping C = alpha M + beta K (mass- and stiffness-proportional)";
-  }
-  std::string signature() const override {
-    return "exponential amplitude decay (beta: faster for higher modes)";
-  }
+  Damping()
+      : CoefficientEffect(
+            {"damping", "Rayleigh damping C = alpha M + beta K (mass- and stiffness-proportional)",
+             "exponential amplitude decay (beta: faster for higher modes)"},
+            {&ModelTerms::rayleigh_alpha, &ModelTerms::rayleigh_beta}) {}
   //! mass: C = alpha M; stiffness: C = beta K; rayleigh: both (one mode cannot tell them
   //! apart, so the one-term variants are tried too and BIC picks).
   std::vector<std::string> variants(const EffectContext&) const override {
@@ -45,11 +43,6 @@ class Damping final : public Effect {
     else
       t = {p[0], p[1]};
     set_effect_terms(ph, *this, t);
-  }
-  std::vector<double> absent_terms() const override { return {0, 0}; }
-  void add_terms(const std::vector<double>& v, ModelTerms& t) const override {
-    t.rayleigh_alpha = v[0];
-    t.rayleigh_beta = v[1];
   }
 };
 

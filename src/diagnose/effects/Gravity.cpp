@@ -6,15 +6,11 @@ namespace gen4d::diagnose::effects {
 
 namespace {
 
-class Gravity final : public Effect {
+class Gravity final : public EffectBase {
  public:
-  std::string name() const override { return "gravity"; }
-  std::string summary() const override {
-    return "body acceleration (gx, gy, gz) other than the deck's gravity";
-  }
-  std::string signature() const override {
-    return "static offset (sag) from the start; oscillation about a shifted mean";
-  }
+  Gravity()
+      : EffectBase({"gravity", "body acceleration (gx, gy, gz) other than the deck's gravity",
+                    "static offset (sag) from the start; oscillation about a shifted mean"}) {}
   std::vector<ParamSpec> params(const EffectContext&, const std::string&) const override {
     return {{"gx", "m/s^2", -30, 30, false},
             {"gy", "m/s^2", -30, 30, false},

@@ -21,4 +21,16 @@ constexpr double kDeckShiftE = 0.15, kDeckShiftNu = 0.05;
 std::vector<Physics> deck_baseline(const EffectContext& c, double shift_nu, bool with_e,
                                    double shift_e = 0);
 
+//! An effect whose terms are coefficients of ModelTerms (`fields`, in term order): add_terms sets
+//! them, and its absent terms are their null values in ModelTerms.
+class CoefficientEffect : public EffectBase {
+ public:
+  CoefficientEffect(EffectInfo info, std::vector<double ModelTerms::*> fields);
+  std::vector<double> absent_terms() const final;
+  void add_terms(const std::vector<double>& v, ModelTerms& t) const final;
+
+ private:
+  std::vector<double ModelTerms::*> fields_;
+};
+
 }  // namespace gen4d::diagnose::effects

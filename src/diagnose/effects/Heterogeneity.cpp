@@ -7,15 +7,13 @@ namespace gen4d::diagnose::effects {
 
 namespace {
 
-class Heterogeneity final : public Effect {
+class Heterogeneity final : public EffectBase {
  public:
-  std::string name() const override { return "heterogeneity"; }
-  std::string summary() const override {
-    return "one box region (located by the stiffness sensitivity map) with E times a factor";
-  }
-  std::string signature() const override {
-    return "mode-shape change and frequency shift; error concentrated near the region";
-  }
+  Heterogeneity()
+      : EffectBase(
+            {"heterogeneity",
+             "one box region (located by the stiffness sensitivity map) with E times a factor",
+             "mode-shape change and frequency shift; error concentrated near the region"}) {}
   bool applicable(const EffectContext& c) const override { return c.has_region; }
   std::vector<ParamSpec> params(const EffectContext&, const std::string&) const override {
     return {{"stiffness_factor", "", 0.05, 20.0, true}};

@@ -6,14 +6,13 @@ namespace gen4d::diagnose::effects {
 
 namespace {
 
-class MaterialLaw final : public Effect {
+class MaterialLaw final : public EffectBase {
  public:
-  std::string name() const override { return "material_law"; }
-  std::string summary() const override {
-    return "another hyperelastic law (neo_hookean, stvk, corotated) with the same E, nu";
-  }
-  std::string signature() const override {
-    return "amplitude-dependent stiffness: static offset and frequency change at large strain";
+  MaterialLaw()
+      : EffectBase(
+            {"material_law",
+             "another hyperelastic law (neo_hookean, stvk, corotated) with the same E, nu",
+             "amplitude-dependent stiffness: static offset and frequency change at large strain"}) {
   }
   std::vector<std::string> variants(const EffectContext& c) const override {
     std::vector<std::string> v;
@@ -30,9 +29,6 @@ class MaterialLaw final : public Effect {
   //! law is also probed at the deck's nu.
   std::vector<Physics> probe_baselines(const EffectContext& c, const std::string&) const override {
     return deck_baseline(c, kDeckNuProbeShift, false);
-  }
-  std::vector<double> null_values(const EffectContext&, const std::string&) const override {
-    return {};
   }
   void apply(const std::string& variant, const std::vector<double>&, const EffectContext&,
              Physics& ph) const override {

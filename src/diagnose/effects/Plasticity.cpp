@@ -1,23 +1,19 @@
 //! Von Mises plasticity with linear isotropic hardening. Terms: {yield stress (inf: none),
 //! hardening}.
-#include <limits>
-
 #include "diagnose/effects/Helpers.hpp"
 
 namespace gen4d::diagnose::effects {
 
 namespace {
 
-class Plasticity final : public Effect {
+class Plasticity final : public CoefficientEffect {
  public:
-  std::string name() const override { return "plasticity"; }
+  Plasticity()
+      : CoefficientEffect(
+            {"plasticity", "von Mises yield with linear isotropic hardening (Hencky elasticity)",
+             "permanent set after the load is removed; extra decay while yielding"},
+            {&ModelTerms::yield_stress, &ModelTerms::hardening}) {}
   bool slow() const override { return true; }
-  std::string summary() const override {
-    return "von Mises yield with linear isotropic hardening (Hencky elasticity)";
-  }
-  std::string signature() const override {
-    return "permanent set after the load is removed; extra decay while yielding";
-  }
   std::vector<ParamSpec> params(const EffectContext& c, const std::string&) const override {
     // Hardening in units of the probes' 0.02 E (in Pa, its steps left it where it started).
     return {{"yield_stress", "Pa", 0.05 * c.max_mises, 2.0 * c.max_mises, true},
@@ -37,13 +33,6 @@ class Plasticity final : public Effect {
     if (p[0] < 1.999 * c.max_mises) t[0] = p[0];
     t[1] = p[1];
     set_effect_terms(ph, *this, t);
-  }
-  std::vector<double> absent_terms() const override {
-    return {std::numeric_limits<double>::infinity(), 0};
-  }
-  void add_terms(const std::vector<double>& v, ModelTerms& t) const override {
-    t.yield_stress = v[0];
-    t.hardening = v[1];
   }
 };
 

@@ -6,15 +6,14 @@ namespace gen4d::diagnose::effects {
 
 namespace {
 
-class Viscoelasticity final : public Effect {
+class Viscoelasticity final : public CoefficientEffect {
  public:
-  std::string name() const override { return "viscoelasticity"; }
-  std::string summary() const override {
-    return "one-term Prony series (standard linear solid): fraction g relaxes with time tau";
-  }
-  std::string signature() const override {
-    return "frequency-dependent decay with a frequency shift; slow creep under a held load";
-  }
+  Viscoelasticity()
+      : CoefficientEffect(
+            {"viscoelasticity",
+             "one-term Prony series (standard linear solid): fraction g relaxes with time tau",
+             "frequency-dependent decay with a frequency shift; slow creep under a held load"},
+            {&ModelTerms::prony_g, &ModelTerms::prony_tau}) {}
   std::vector<ParamSpec> params(const EffectContext& c, const std::string&) const override {
     return {{"g", "", 0.0, 0.9, false}, {"tau", "s", 0.01 / c.omega, 100.0 / c.omega, true}};
   }
@@ -23,15 +22,6 @@ class Viscoelasticity final : public Effect {
   }
   std::vector<double> null_values(const EffectContext& c, const std::string&) const override {
     return {0, 1.0 / c.omega};
-  }
-  void apply(const std::string&, const std::vector<double>& p, const EffectContext&,
-             Physics& ph) const override {
-    set_effect_terms(ph, *this, {p[0], p[1]});
-  }
-  std::vector<double> absent_terms() const override { return {0, 1}; }
-  void add_terms(const std::vector<double>& v, ModelTerms& t) const override {
-    t.prony_g = v[0];
-    t.prony_tau = v[1];
   }
 };
 

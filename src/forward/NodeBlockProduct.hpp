@@ -8,7 +8,7 @@
 #include <Eigen/Sparse>
 #include <vector>
 
-namespace gen4d::diagnose {
+namespace gen4d::forward {
 
 class NodeBlockProduct {
  public:
@@ -58,4 +58,4 @@ class NodeBlockProduct {
   std::vector<double> val_;
 };
 
-}  // namespace gen4d::diagnose
+}  // namespace gen4d::forward

@@ -6,11 +6,12 @@
 
 #include <limits>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "core/Config.hpp"
 
-namespace gen4d::diagnose {
+namespace gen4d::forward {
 
 //! A node of the voxel model or a particle of the MPM model, as a NodeForce sees it.
 struct ForceNode {
@@ -39,6 +40,18 @@ class NodeForce {
 struct ContactPlane {
   Vec3d point{0, 0, 0}, normal{0, 0, 1};
   double friction = 0;
+};
+
+struct ModelTerms;
+
+//! What a forward model asks of an effect (diagnose's effects are TermSources): a name, for
+//! the memo keys and logs, and the terms it adds to a run at given term values.
+class TermSource {
+ public:
+  virtual ~TermSource() = default;
+  virtual std::string name() const = 0;
+  //! The forward models' hook: adds the terms with values `terms` to t (once per run).
+  virtual void add_terms(const std::vector<double>& /*terms*/, ModelTerms& /*t*/) const {}
 };
 
 //! The terms of one run, at their null values where no applied effect sets them.
@@ -72,4 +85,4 @@ struct ModelTerms {
   }
 };
 
-}  // namespace gen4d::diagnose
+}  // namespace gen4d::forward

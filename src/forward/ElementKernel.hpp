@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-namespace gen4d::diagnose {
+namespace gen4d::forward {
 
 //! Shape functions of the element: the 8 trilinear corners, then the 3 incompatible (bubble)
 //! modes of Wilson and Taylor, one per axis (see Model.cpp).
@@ -118,4 +118,4 @@ std::vector<std::string> element_kernel_isas();
 std::string element_kernel_isa();
 void set_element_kernel_isa(const std::string& isa);
 
-}  // namespace gen4d::diagnose
+}  // namespace gen4d::forward

@@ -16,20 +16,18 @@
 #include <vector>
 
 #include "core/Config.hpp"
-#include "diagnose/Terms.hpp"
+#include "forward/Terms.hpp"
 
-namespace gen4d::diagnose {
+namespace gen4d::forward {
 
 //! The voxel element: trilinear hexahedron with 2x2x2 Gauss points (ElastoGen's), or the same
 //! with Wilson-Taylor incompatible modes (three bubbles per voxel, condensed per element),
 //! which removes the trilinear element's shear locking in bending.
 enum class Element { trilinear, incompatible };
 
-class Effect;
-
-//! One effect in a forward run: the values of its terms (Effect::add_terms reads them).
+//! One effect in a forward run: the values of its terms (TermSource::add_terms reads them).
 struct AppliedEffect {
-  const Effect* effect = nullptr;
+  const TermSource* effect = nullptr;
   std::vector<double> terms;
 };
 
@@ -135,6 +133,9 @@ class ForwardModel {
   virtual bool samples_accelerations() const { return true; }
 };
 
+//! What ph's applied effects add to a run (each one's add_terms, in ph.effects order).
+ModelTerms model_terms(const Physics& ph);
+
 //! The forward model of a deck: MpmModel for solver.method = "mpm", else VoxelModel.
 std::unique_ptr<ForwardModel> make_forward_model(const Config& cfg);
 
@@ -204,4 +205,4 @@ class VoxelModel final : public ForwardModel {
   BoxRegion bounds_;
 };
 
-}  // namespace gen4d::diagnose
+}  // namespace gen4d::forward

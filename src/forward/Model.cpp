@@ -1,11 +1,10 @@
-#include "diagnose/Model.hpp"
-#include "diagnose/MpmModel.hpp"
+#include "forward/Model.hpp"
+#include "forward/MpmModel.hpp"
 
-#include "diagnose/BlockLDLT.hpp"
-#include "diagnose/Effects.hpp"
-#include "diagnose/ElementKernel.hpp"
-#include "diagnose/HenckyJ2.hpp"
-#include "diagnose/NodeBlockProduct.hpp"
+#include "forward/BlockLDLT.hpp"
+#include "forward/ElementKernel.hpp"
+#include "forward/HenckyJ2.hpp"
+#include "forward/NodeBlockProduct.hpp"
 
 #include <Eigen/Dense>
 #include <Eigen/IterativeLinearSolvers>
@@ -28,7 +27,7 @@
 #include "materials/Registry.hpp"
 #include "materials/StVK.hpp"
 
-namespace gen4d::diagnose {
+namespace gen4d::forward {
 
 namespace {
 
@@ -275,6 +274,12 @@ struct HasPk1Jacobian<
     : std::true_type{};
 
 }  // namespace
+
+ModelTerms model_terms(const Physics& ph) {
+  ModelTerms t;
+  for (const auto& a : ph.effects) a.effect->add_terms(a.terms, t);
+  return t;
+}
 
 std::unique_ptr<ForwardModel> make_forward_model(const Config& cfg) {
   if (cfg.solver.method == "mpm") return std::make_unique<MpmModel>(cfg);
@@ -1528,4 +1533,4 @@ Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req)
   return VoxelRun<RegistryLaw>(*this, ph, tm, generic).run(req);
 }
 
-}  // namespace gen4d::diagnose
+}  // namespace gen4d::forward

@@ -1,4 +1,4 @@
-#include "diagnose/MpmModel.hpp"
+#include "forward/MpmModel.hpp"
 
 #include <fmt/format.h>
 
@@ -11,14 +11,13 @@
 #include <unordered_map>
 
 #include "core/Error.hpp"
-#include "diagnose/Effects.hpp"
 #include "geometry/Shape.hpp"
 #include "materials/Svd3.hpp"
 #include "mpm/MpmSimulation.hpp"
 #include "mpm/Seeding.hpp"
 #include "mpm/Solver.hpp"
 
-namespace gen4d::diagnose {
+namespace gen4d::forward {
 
 namespace {
 
@@ -467,4 +466,4 @@ Trace MpmModel::run(const Physics& ph, const std::vector<ChannelRequest>& req) c
   return tr;
 }
 
-}  // namespace gen4d::diagnose
+}  // namespace gen4d::forward

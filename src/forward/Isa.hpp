@@ -20,7 +20,7 @@
 #define GEN4D_ALWAYS_INLINE inline
 #endif
 
-namespace gen4d::diagnose {
+namespace gen4d::forward {
 
 // Four double lanes (a 256-bit vector where the build has AVX, else two 128-bit halves). The
 // helpers taking and returning them are always inlined, so no call passes one in a register
@@ -114,4 +114,4 @@ class IsaDispatch {
   const Table* use_;
 };
 
-}  // namespace gen4d::diagnose
+}  // namespace gen4d::forward

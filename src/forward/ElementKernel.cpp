@@ -1,8 +1,8 @@
 // Built with -ffp-contract=off (src/CMakeLists.txt): a fused multiply-add would round once
 // where the scalar loop rounds twice, and the builds would differ in their last bits.
-#include "diagnose/ElementKernel.hpp"
+#include "forward/ElementKernel.hpp"
 
-#include "diagnose/Isa.hpp"
+#include "forward/Isa.hpp"
 #include "materials/StVK.hpp"
 #include "materials/Svd3.hpp"
 
@@ -11,7 +11,7 @@
 #include <stdexcept>
 #include <string>
 
-namespace gen4d::diagnose {
+namespace gen4d::forward {
 
 namespace {
 
@@ -516,4 +516,4 @@ void set_element_kernel_isa(const std::string& isa) {
   g_kernels.set(isa);
 }
 
-}  // namespace gen4d::diagnose
+}  // namespace gen4d::forward

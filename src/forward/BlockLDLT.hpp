@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-namespace gen4d::diagnose {
+namespace gen4d::forward {
 
 class BlockLDLT {
  public:
@@ -61,4 +61,4 @@ class BlockLDLT {
   mutable std::vector<double> y_;  //!< permuted work vector, 4 values per node
 };
 
-}  // namespace gen4d::diagnose
+}  // namespace gen4d::forward

@@ -21,13 +21,13 @@
 #include <string>
 #include <vector>
 
-#include "diagnose/Model.hpp"
+#include "forward/Model.hpp"
 
 namespace gen4d::geometry {
 class Shape;
 }
 
-namespace gen4d::diagnose {
+namespace gen4d::forward {
 
 class MpmModel final : public ForwardModel {
  public:
@@ -80,4 +80,4 @@ class MpmModel final : public ForwardModel {
   bool elastic_ = false;
 };
 
-}  // namespace gen4d::diagnose
+}  // namespace gen4d::forward

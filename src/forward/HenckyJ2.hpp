@@ -17,7 +17,7 @@
 
 #include "materials/J2Return.hpp"
 
-namespace gen4d::diagnose {
+namespace gen4d::forward {
 
 struct HenckyJ2 {
   double mu = 0, lambda = 0;
@@ -59,4 +59,4 @@ struct HenckyJ2 {
   }
 };
 
-}  // namespace gen4d::diagnose
+}  // namespace gen4d::forward

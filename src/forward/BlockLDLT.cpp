@@ -1,14 +1,14 @@
 // Built with -ffp-contract=off (src/CMakeLists.txt), as the other vector kernels (Isa.hpp).
-#include "diagnose/BlockLDLT.hpp"
+#include "forward/BlockLDLT.hpp"
 
-#include "diagnose/Isa.hpp"
+#include "forward/Isa.hpp"
 
 #include <Eigen/OrderingMethods>
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
-namespace gen4d::diagnose {
+namespace gen4d::forward {
 
 void BlockLDLT::analyze(const SpMat& A) {
   if (A.rows() != A.cols() || A.rows() % 3 != 0)
@@ -296,4 +296,4 @@ void BlockLDLT::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) const {
     for (int a = 0; a < 3; ++a) x[static_cast<Eigen::Index>(3 * o) + a] = y[4 * perm_[o] + a];
 }
 
-}  // namespace gen4d::diagnose
+}  // namespace gen4d::forward
