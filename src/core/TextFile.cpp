@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cstdlib>
@@ -57,6 +58,23 @@ bool parse_double(const std::string& token, double& value) {
   errno = 0;
   value = std::strtod(begin, &end);
   return end != begin && *end == '\0' && errno != ERANGE;
+}
+
+std::string escaped(std::string_view text,
+                    std::initializer_list<std::pair<char, std::string_view>> table,
+                    std::string (*control)(char)) {
+  std::string out;
+  for (char c : text) {
+    const auto* hit = std::find_if(table.begin(), table.end(),
+                                   [c](const auto& entry) { return entry.first == c; });
+    if (hit != table.end())
+      out += hit->second;
+    else if (control && static_cast<unsigned char>(c) < 0x20)
+      out += control(c);
+    else
+      out += c;
+  }
+  return out;
 }
 
 }  // namespace gen4d

@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace gen4d {
@@ -36,6 +37,11 @@ std::string quote_token(const std::string& token);
 
 //! The whitespace-separated tokens of `line`.
 std::vector<std::string> split_whitespace(const std::string& line);
+//! `text` with each character the table lists replaced by its text (XML entities, JSON
+//! escapes); other characters below 0x20 as `control` formats them when it is given.
+std::string escaped(std::string_view text,
+                    std::initializer_list<std::pair<char, std::string_view>> table,
+                    std::string (*control)(char) = nullptr);
 
 //! Parses the whole token as a double within range; false otherwise (inf and nan spelt out
 //! are accepted: callers that need a finite value check it).

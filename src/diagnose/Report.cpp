@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "core/Error.hpp"
+#include "core/TextFile.hpp"
 #include "io/Plot.hpp"
 #include "io/Xdmf.hpp"
 
@@ -26,29 +27,9 @@ std::string jnum(double v) {
 }
 
 std::string jstr(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    switch (c) {
-      case '"':
-        o += "\\\"";
-        break;
-      case '\\':
-        o += "\\\\";
-        break;
-      case '\n':
-        o += "\\n";
-        break;
-      case '\t':
-        o += "\\t";
-        break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20)
-          o += fmt::format("\\u{:04x}", static_cast<int>(c));
-        else
-          o += c;
-    }
-  }
-  return o + "\"";
+  const auto control = [](char c) { return fmt::format("\\u{:04x}", static_cast<int>(c)); };
+  return "\"" +
+         escaped(s, {{'"', "\\\""}, {'\\', "\\\\"}, {'\n', "\\n"}, {'\t', "\\t"}}, +control) + "\"";
 }
 
 std::string jbox(const BoxRegion& b) {

@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include "materials/J2Return.hpp"
+
 namespace gen4d::forward {
 
 //! Shape functions of the element: the 8 trilinear corners, then the 3 incompatible (bubble)
@@ -31,17 +33,7 @@ constexpr int kShapes = 11;
 //! and the run fail a few steps later.
 constexpr double kStvkContinuedStretch = 0.6;
 
-//! Von Mises equivalent of a (Kirchhoff) stress, sqrt(3/2 |dev tau|^2), row-major.
-inline double mises(const double tau[9]) {
-  const double p = (tau[0] + tau[4] + tau[8]) / 3.0;
-  double s2 = 0;
-  for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b) {
-      const double d = tau[3 * a + b] - (a == b ? p : 0.0);
-      s2 += d * d;
-    }
-  return std::sqrt(1.5 * s2);
-}
+using materials::mises;
 
 //! The elastic laws the force pass has in lanes, each the arithmetic of its materials::
 //! pk1, operation for operation (corotated: with the rotation of

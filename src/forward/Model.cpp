@@ -62,18 +62,19 @@ inline void scatter_at(const double (&g)[kShapes][3], const double P[9], double 
 using elastogen::HexStencil;
 using SpMat = Eigen::SparseMatrix<double>;
 
+//! The one instance of a constant table, built at its first use.
+template <class T>
+const T& built_once() {
+  static const T table;
+  return table;
+}
+
 //! Gradients (unit cube) of the element's shape functions at its 8 Gauss points: the trilinear
 //! corners of HexStencil, then the bubbles 4 xi_i (1 - xi_i), whose gradient is along axis i.
 //! The bubbles' gradients sum to zero over the Gauss points, so a constant stress does no work
 //! on them and the element passes the patch test.
 struct ElementStencil {
   double dN[8][kShapes][3];
-  static const ElementStencil& get() {
-    static const ElementStencil s;
-    return s;
-  }
-
- private:
   ElementStencil() {
     const HexStencil& S = HexStencil::get();
     const double g[2] = {0.5 - 0.5 / std::sqrt(3.0), 0.5 + 0.5 / std::sqrt(3.0)};
@@ -94,14 +95,8 @@ using ElemMat = Eigen::Matrix<double, kDof, kDof>;
 //! K = h (lambda KL + mu KM), dof (shape l, axis a) -> 3 l + a.
 struct UnitStiffness {
   ElemMat KL, KM;
-  static const UnitStiffness& get() {
-    static const UnitStiffness s;
-    return s;
-  }
-
- private:
   UnitStiffness() {
-    const ElementStencil& S = ElementStencil::get();
+    const ElementStencil& S = built_once<ElementStencil>();
     for (int l = 0; l < kShapes; ++l)
       for (int a = 0; a < 3; ++a)
         for (int m = 0; m < kShapes; ++m)
@@ -143,7 +138,7 @@ bool condense(const ElemMat& K, Condensed& c) {
 //! the bubbles condensed (incompatible element) or left out (trilinear). False when the
 //! bubble stiffness is singular.
 bool rest_element(bool bubbles, double h, double lambda, double mu, Condensed& c) {
-  const UnitStiffness& U = UnitStiffness::get();
+  const UnitStiffness& U = built_once<UnitStiffness>();
   const ElemMat K0e = h * (lambda * U.KL + mu * U.KM);
   if (bubbles) return condense(K0e, c);
   c.Kc = K0e.block<24, 24>(0, 0);
@@ -592,7 +587,7 @@ class VoxelRun {
   // for the viscous stress), trial values, and their residual (element-local equations).
   std::vector<double> al, ald, al1, ald1, ral;
   Eigen::VectorXd R, du, wa, Mwa;
-  const ElementStencil& S = ElementStencil::get();
+  const ElementStencil& S = built_once<ElementStencil>();
   double step_max_mises = 0;
   long step_continued = 0;  // StVK: Gauss points continued at the step's predictor
   double G[8][kShapes][3];

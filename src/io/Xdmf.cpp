@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/Error.hpp"
+#include "core/TextFile.hpp"
 #include "io/AtomicFile.hpp"
 
 namespace gen4d::io {
@@ -19,26 +20,7 @@ std::string dims_text(const std::array<long, 3>& xyz, const char* tail = "") {
 }  // namespace
 
 std::string xml_escaped(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
+  return escaped(text, {{'&', "&amp;"}, {'<', "&lt;"}, {'>', "&gt;"}, {'"', "&quot;"}});
 }
 
 XdmfCollection::XdmfCollection(const std::string& name, const std::string& h5_name)

@@ -10,6 +10,7 @@
 
 #include "core/Log.hpp"
 #include "core/Progress.hpp"
+#include "materials/J2Return.hpp"
 #include "parallel/Signals.hpp"
 #include "geometry/Shape.hpp"
 #include "io/Checkpoint.hpp"
@@ -339,15 +340,7 @@ void MpmSimulation::write_frame(ParticleFrameWriter& writer, const std::string& 
     const double* F = &p.F[9 * i];
     J[i] = F[0] * (F[4] * F[8] - F[5] * F[7]) - F[1] * (F[3] * F[8] - F[5] * F[6]) +
            F[2] * (F[3] * F[7] - F[4] * F[6]);
-    const double* t = &tau[9 * i];
-    const double tr = (t[0] + t[4] + t[8]) / 3;
-    double s2 = 0;
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) {
-        const double s = t[3 * r + c] - (r == c ? tr : 0.0);
-        s2 += s * s;
-      }
-    mises[i] = std::sqrt(1.5 * s2) / std::max(J[i], 1e-12);
+    mises[i] = materials::mises(&tau[9 * i]) / std::max(J[i], 1e-12);
     for (std::size_t s = 0; s < names.size(); ++s) slots[s][i] = p.state[kStateSize * i + s];
   }
   std::vector<ParticleScalar> fields{{"J", J.data()}, {"von_mises_stress", mises.data()}};
