@@ -13,6 +13,8 @@ Usage: check_blind_scoring.py PATH/TO/diagnose_blind.py
 - The modal equivalent alpha = c (P L + 4 A_tip) / (rho A L) maps drag to damping and back.
 - The clamp_compliance springs hold the root face's translation and its rotation across a
   two-element thickness at a continuous foundation's stiffness (lumped springs: 1.167 times).
+- The hidden-like set's cases: the bar, its load, gravity from t = 0 in the recording and
+  what each deck leaves out (its recordings take CalculiX 20-35 minutes each: not run here).
 """
 import importlib.util
 import sys
@@ -124,6 +126,31 @@ def main():
           and abs(energy(z) - exact_rot) < 1e-9 * exact_rot,
           "consistent clamp: translation and rotation at the continuous foundation's "
           "stiffness (lumped: %.3f x)" % (lumped_rot / exact_rot))
+
+    # The hidden-like set's scene: the recording's CalculiX input against the nominal deck.
+    cases = {c["name"]: c for c in db.cases_hidden(db.np.random.default_rng(1))}
+    check(sorted(cases) == ["gravity-left-out", "gravity-left-out-z", "nu-off"],
+          "hidden-like set: its three cases")
+    for name, c in cases.items():
+        mesh = db.Mesh(c["n"], c["h"], "C3D8")
+        inp = db.write_inp(c, mesh, "truth", [1], c["end_time"])
+        deck = db.deck_text(c)
+        grav = [line for line in inp.splitlines() if ",GRAV," in line]
+        check(c["n"] == (30, 5, 3) and "hi = [0.3, 0.05, 0.03]" in deck
+              and c["force"][0] == 0 and c["force"][1] < 0 and c["force"][2] == 0,
+              "%s: a 0.30 x 0.05 x 0.03 m bar, 3 voxels thick, loaded along -y" % name)
+        check(len(grav) == 1 and inp.index("*STEP") < inp.index(grav[0])
+              and "*STATIC" not in inp and "*INITIAL" not in inp,
+              "%s: the recording's gravity acts from t = 0 on the straight, unstressed bar"
+              % name)
+        nu_inp = float(inp.split("*ELASTIC\n")[1].splitlines()[0].split(",")[1])
+        nu_deck = float(deck.split("poisson_ratio = ")[1].split()[0])
+        if name == "nu-off":
+            check(nu_inp == 0.35 and nu_deck == 0.3 and "gravity = [0, -9.81, 0]" in deck,
+                  "nu-off: only nu (0.35 recorded, 0.3 in the deck) and E differ")
+        else:
+            check(nu_inp == nu_deck == 0.3 and "gravity = [0, 0, 0]" in deck,
+                  "%s: the deck leaves the recording's gravity out" % name)
     print("%d failure(s)" % len(failures))
     return 1 if failures else 0
 

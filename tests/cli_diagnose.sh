@@ -29,12 +29,16 @@ check() {  # check NAME EXPECTED_RC PATTERN -- command...
 } > beam.toml
 hdr="marker,X,Y,Z,t,x,y,z"
 printf '%s\n1,0.08,0.01,0.02,0,0.08,0.01,0.02\n1,0.08,0.01,0.02,0.01,0.08,0.01,0.0199\n' "$hdr" > short.csv
-printf 'marker,X,Y,Z,t,x,y\n1,0.08,0.01,0.02,0,0.08,0.01\n' > missing.csv
+# A value column may be left out (not measured); the reference point and time may not.
+printf 'marker,X,Y,t,x,y,z\n1,0.08,0.01,0,0.08,0.01,0.02\n' > missing.csv
 printf '%s\n1,0.08,0.01,0.02,0,0.08,0.01,0.02\n1,0.08,0.01,0.02,0.01,nan,0.01,0.02\n' "$hdr" > nan.csv
 printf '%s\n1,0.08,0.01,0.02,0.02,0.08,0.01,0.02\n1,0.08,0.01,0.02,0.01,0.08,0.01,0.02\n' "$hdr" > backwards.csv
 { echo "$hdr"; for k in $(seq 0 20); do echo "7,0.5,0.01,0.02,$((k / 10)).$((k % 10)),0.5,0.01,0.02"; done; } > outside.csv
 run() { "$mpiexec" -n 2 "$gen4d" diagnose beam.toml "$@"; }
-check missing-column 2 "missing.csv.*column 'z'" -- run --recording missing.csv --out o1
+check missing-column 2 "missing.csv.*column 'Z'" -- run --recording missing.csv --out o1
+check unmeasured-name 2 "unmeasured.*'w'" -- run --recording missing.csv --unmeasured w --out o1
+{ echo "$hdr"; for k in $(seq 0 20); do echo "1,0.08,0.01,0.02,$((k / 10)).$((k % 10)),0.08,0.01,0.02"; done; } > still.csv
+check lowpass-nyquist 2 "lowpass.*Nyquist" -- run --recording still.csv --lowpass 1e6 --out o1
 check nan 2 "nan.csv:3" -- run --recording nan.csv --out o2
 check time-backwards 2 "backwards.csv:3" -- run --recording backwards.csv --out o3
 check outside-body 2 "outside.csv.*marker '7'.*not inside the body" -- run --recording outside.csv --out o4

@@ -375,8 +375,9 @@ TEST_F(RecordingTest, MergeAllowsOneIdInBothKindsRejectsDuplicates) {
 // -------------------------------------------------------------------------------- bad files
 
 TEST_F(RecordingTest, MissingColumn) {
-  const std::string path = write("missing.csv", "marker,X,Y,Z,t,x,y\nm1,0,0,0,0,0,0\n");
-  expect_input_error([&] { read_recording(path); }, {"missing.csv:1:", "missing column 'z'"});
+  // A value column may be left out (not measured); the id, reference point and time may not.
+  const std::string path = write("missing.csv", "marker,X,Y,t,x,y,z\nm1,0,0,0,0,0,0\n");
+  expect_input_error([&] { read_recording(path); }, {"missing.csv:1:", "missing column 'Z'"});
 }
 
 TEST_F(RecordingTest, UnknownColumn) {
@@ -470,9 +471,9 @@ TEST_F(RecordingTest, Hdf5MissingDataset) {
   {
     H5Writer h(path);
     h.ints("sensor", {1, 1});
-    for (const char* n : {"X", "Y", "Z", "t", "ax", "az"}) h.numbers(n, {0, 1});
+    for (const char* n : {"X", "Y", "Z", "ax", "ay", "az"}) h.numbers(n, {0, 1});
   }
-  expect_input_error([&] { read_recording(path); }, {"nodata.h5", "missing dataset /ay"});
+  expect_input_error([&] { read_recording(path); }, {"nodata.h5", "missing dataset /t"});
 }
 
 TEST_F(RecordingTest, Hdf5LengthMismatch) {

@@ -30,6 +30,7 @@
 #include "parallel/Signals.hpp"
 #include "diagnose/Diagnose.hpp"
 #include "diagnose/Effects.hpp"
+#include "diagnose/Recording.hpp"
 #include "elastogen/Simulation.hpp"
 #include "io/Checkpoint.hpp"
 #include "io/FrameReader.hpp"
@@ -462,6 +463,17 @@ int dispatch(int argc, char** argv) {
                  "Skip the h/2 rerun that measures the model's discretisation error before an "
                  "effect is kept (it costs about 20 forward runs' time; without it only the 20 % "
                  "held-out rule guards against absorbed discretisation error)");
+  std::string dg_unmeasured;
+  CLI::Option* dg_unmeasured_opt = diag->add_option(
+      "--unmeasured", dg_unmeasured,
+      "Comma-separated value columns (x,y,z,ax,ay,az) not measured, for files that write 0 "
+      "for an axis the sensor lacks; applies to every --recording. An empty CSV cell, a value "
+      "column left out of the header or NaN in HDF5 are not measured anyway");
+  diag->add_option("--lowpass", dg.lowpass_hz,
+                   "The recording was low-pass filtered at this cutoff (Hz) forwards and "
+                   "backwards: every prediction is filtered alike (4th-order Butterworth, zero "
+                   "phase)")
+      ->check(CLI::PositiveNumber);
   diag->add_option("--set,-s", dg_sets, "Override a deck key, e.g. --set simulation.dt=0.001")
       ->take_all();
 
@@ -497,6 +509,18 @@ int dispatch(int argc, char** argv) {
       throw InputError("command line: --effects '" + dg_effects +
                        "' names no effect (a comma-separated list of library effects)");
     dg.refinement_check = !dg_no_refinement;
+    std::stringstream us(dg_unmeasured);
+    const auto& columns = diagnose::value_column_names();
+    for (std::string u; std::getline(us, u, ',');) {
+      if (u.empty()) continue;
+      if (std::find(columns.begin(), columns.end(), u) == columns.end())
+        throw InputError("command line: --unmeasured '" + dg_unmeasured + "': '" + u +
+                         "' is not a value column (x, y, z, ax, ay, az)");
+      dg.unmeasured.push_back(u);
+    }
+    if (dg_unmeasured_opt->count() > 0 && dg.unmeasured.empty())
+      throw InputError("command line: --unmeasured '" + dg_unmeasured +
+                       "' names no column (a comma-separated list of x, y, z, ax, ay, az)");
     return diagnose::run_diagnose(MPI_COMM_WORLD, cfg, dg);
   }
   if (*preview) {

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Blind recordings for `gen4d diagnose`, made with CalculiX, and their scoring.
 
-    diagnose_blind.py generate --out DIR --set small|full|plate [--seed S] [--ccx ccx]
+    diagnose_blind.py generate --out DIR --set small|full|plate|hidden-like [--seed S]
+                               [--ccx ccx]
     diagnose_blind.py score --cases DIR --gen4d PATH/TO/gen4d [--np 1]
                             [--json score.json] [--only CASE ...]
 
@@ -30,7 +31,12 @@ gains nothing from a second thread here), plus the reference runs of
 plasticity and material_law: about 3 hours on one core.  `plate` (4 cases:
 none, damping beta, a soft region, clamp compliance; a 16x8x2-voxel plate
 cantilevered from its short side, 2 s, no separability check by default) tries
-diagnose on another shape than the beams it was developed on.  `--element C3D8I`
+diagnose on another shape than the beams it was developed on.  `hidden-like` (3
+cases; a 30x5x3-voxel bar, 0.30 x 0.05 x 0.03 m, E 2e6, 1.5 s, loaded along -y, y up)
+keeps the scene of two failures a hidden set of simulated recordings found:
+gravity-left-out (the recording's gravity, -y, not in the deck), gravity-left-out-z
+(the same along -z, across the load) and nu-off (a null case whose deck has nu 0.3
+where the recording's is 0.35); 18-26 minutes of ccx a case.  `--element C3D8I`
 is about 4 times faster.  `--only CASE...` generates a subset (the
 parameters do not depend on the subset), so several subsets can run in
 parallel into separate folders.
@@ -194,6 +200,11 @@ def beam(kind):
         # in-plane one 16x stiffer, and the first torsion mode lies between them
         return dict(n=(16, 8, 2), h=0.01, E=1.0e6, end_time=2.0, dt=0.002,
                     force=(0.0, 3.0, -0.5), markers=10)
+    if kind == "hidden":
+        # a 0.30 x 0.05 x 0.03 m bar, three voxels through its thickness (z), pushed along -y
+        # (the 0.05 m side) by its tip load and, y being up, pulled along -y by gravity
+        return dict(n=(30, 5, 3), h=0.01, E=2.0e6, end_time=1.5, dt=0.002,
+                    force=(0.0, -1.0, 0.0), markers=10, gravity=(0.0, -G, 0.0))
     return dict(n=(20, 4, 4), h=0.01, E=5.0e5, end_time=2.0, dt=0.002,
                 force=(0.0, 0.6, -0.4), markers=10)
 
@@ -201,10 +212,14 @@ def beam(kind):
 def base_case(name, kind, rng, effect=None, params=None, scored=(), noise=None):
     b = beam(kind)
     sign = rng.choice([-1.0, 1.0])
+    if kind == "hidden":  # the load's direction is part of the scene: no random sign
+        sign = 1.0
     f = np.array(b["force"]) * rng.uniform(0.8, 1.2) * np.array([1.0, sign, 1.0])
+    g = list(b.get("gravity", (0.0, 0.0, -G)))
     return dict(name=name, kind=kind, n=b["n"], h=b["h"], end_time=b["end_time"],
                 dt=b["dt"], E_true=b["E"], E_factor=float(rng.uniform(0.9, 1.1)),
-                force=[float(v) for v in f], g_true=[0.0, 0.0, -G], g_deck=[0.0, 0.0, -G],
+                nu_true=NU, nu_deck=NU,
+                force=[float(v) for v in f], g_true=list(g), g_deck=list(g),
                 noise=noise if noise is not None else (
                     1e-4 if kind == "small" else float(rng.uniform(5e-5, 2e-4))),
                 markers=b["markers"], seed=int(rng.integers(1 << 31)), effect=effect,
@@ -298,6 +313,30 @@ def cases_full(rng):
     cs.append(case_material_law("material-law-1", rng, 0.06))
     cs.append(case_material_law("material-law-2", rng, 0.10))
     return cs
+
+
+def cases_hidden(rng):
+    """The two failures a hidden set of simulated recordings found, on its scene: a
+    0.30 x 0.05 x 0.03 m bar (three voxels thick) loaded along -y, starting straight and
+    unstressed with gravity switched on at t = 0.  gravity-left-out: the recording has
+    gravity (-y, along the load), the deck has none; gravity-left-out-z: the same with the
+    recording's gravity along -z, across the load.  nu-off: a null case whose deck has
+    Poisson's ratio 0.3 where the recording's is 0.35 (and E off as in every case)."""
+    g = base_case("gravity-left-out", "hidden", rng, "gravity")
+    g["g_deck"] = [0.0, 0.0, 0.0]
+    g["params"] = dict(zip(("gx", "gy", "gz"), g["g_true"]))
+    g["scored"] = ["gy"]
+    g["notes"] = "deck has no gravity; the bar starts straight with gravity on from t = 0"
+    n = base_case("nu-off", "hidden", rng)
+    n["nu_true"] = 0.35
+    n["notes"] = "null case: the deck's Poisson's ratio is 0.3, the recording's 0.35"
+    z = base_case("gravity-left-out-z", "hidden", rng, "gravity")
+    z["g_true"], z["g_deck"] = [0.0, 0.0, -G], [0.0, 0.0, 0.0]
+    z["params"] = dict(zip(("gx", "gy", "gz"), z["g_true"]))
+    z["scored"] = ["gz"]
+    z["notes"] = ("deck has no gravity; the recording's pulls along -z, across the load, "
+                  "bending the bar through its 0.03 m thickness")
+    return [g, n, z]
 
 
 def cases_plate(rng):
@@ -478,13 +517,13 @@ def elset(name, ids):
                                          for i in range(0, len(ids), 12)]
 
 
-def lines_material(name, E, law, plastic):
+def lines_material(name, E, law, plastic, nu=NU):
     out = ["*MATERIAL,NAME=%s" % name]
     if law == "neo_hookean":
-        mu, K = E / (2 * (1 + NU)), E / (3 * (1 - 2 * NU))
+        mu, K = E / (2 * (1 + nu)), E / (3 * (1 - 2 * nu))
         out += ["*HYPERELASTIC,NEO HOOKE", "%s,%s" % (fmt(mu / 2), fmt(2 / K))]
     else:
-        out += ["*ELASTIC", "%s,%s" % (fmt(E), fmt(NU))]
+        out += ["*ELASTIC", "%s,%s" % (fmt(E), fmt(nu))]
     if plastic:
         sy, H = plastic
         out += ["*PLASTIC", "%s,0.0" % fmt(sy), "%s,1.0" % fmt(sy + H)]
@@ -641,10 +680,12 @@ def write_inp(case, mesh, variant, print_nodes, end_time, clamp_stress=False):
     if eff == "plasticity":
         plastic = (p["yield_stress"], p["hardening"])
     law = "neo_hookean" if eff == "material_law" else "stvk"
-    out += lines_material("MBASE", E, law, plastic)
+    nu = case.get("nu_true", NU)
+    out += lines_material("MBASE", E, law, plastic, nu)
     out += ["*SOLID SECTION,ELSET=EBASE,MATERIAL=MBASE"]
     if ehet:
-        out += elset("EHET", ehet) + lines_material("MHET", E * p["stiffness_factor"], law, None)
+        out += elset("EHET", ehet) + lines_material("MHET", E * p["stiffness_factor"], law, None,
+                                                     nu)
         out += ["*SOLID SECTION,ELSET=EHET,MATERIAL=MHET"]
     grounds = Grounds(mesh)
     if eff == "clamp_compliance":
@@ -850,7 +891,7 @@ def deck_text(case):
         "", "[domain]", "voxel_size = %.9g" % h, "padding = 1",
         "", "[[geometry]]", 'type = "box"', "lo = [0, 0, 0]", "hi = %s" % vec([L, W, H]),
         "", "[material]", 'model = "stvk"',
-        "youngs_modulus = %.9g" % E_nom, "poisson_ratio = %.9g" % NU, "density = %.9g" % RHO,
+        "youngs_modulus = %.9g" % E_nom, "poisson_ratio = %.9g" % case.get("nu_deck", NU), "density = %.9g" % RHO,
         "", "[[fixed]]", "lo = [-1, -1, -1]", "hi = [%.9g, 1, 1]" % (0.1 * h),
         "", "[[force]]", "lo = [%.9g, -1, -1]" % (L - 0.5 * h), "hi = %s" % vec([L + 1, 1, 1]),
         "force = %s" % vec(case["force"]), "start = 0", "end = %.9g" % T_RELEASE, ""]
@@ -1020,6 +1061,7 @@ def truth_of(case, element, summary):
     return {"effect": case["effect"], "parameters": case["params"],
             "scored_parameters": case["scored"], "region": case["region"],
             "E_true": case["E_true"], "E_nominal": case["E_true"] * case["E_factor"],
+            "nu_true": case["nu_true"], "nu_nominal": case["nu_deck"],
             "noise_sigma": case["noise"], "element": element, "notes": notes,
             "detectable": bool(detectable), "detect_snr": snr,
             "gravity": case["g_true"], "tip_force": case["force"],
@@ -1049,7 +1091,8 @@ def print_summary(name, truth, s):
 def cmd_generate(args):
     ccx = find_ccx(args.ccx)
     rng = np.random.default_rng(args.seed)
-    all_cases = {"small": cases_small, "full": cases_full, "plate": cases_plate}[args.set](rng)
+    all_cases = {"small": cases_small, "full": cases_full, "plate": cases_plate,
+                 "hidden-like": cases_hidden}[args.set](rng)
     cases = [c for c in all_cases if not args.only or c["name"] in args.only]
     unknown = set(args.only or []) - {c["name"] for c in all_cases}
     if unknown:
@@ -1292,7 +1335,8 @@ def main(argv=None):
     sub = ap.add_subparsers(dest="cmd", required=True)
     g = sub.add_parser("generate", help="make blind cases with CalculiX")
     g.add_argument("--out", required=True)
-    g.add_argument("--set", choices=("small", "full", "plate"), default="small")
+    g.add_argument("--set", choices=("small", "full", "plate", "hidden-like"),
+                   default="small")
     g.add_argument("--seed", type=int, default=1)
     g.add_argument("--ccx", default="ccx")
     g.add_argument("--element", choices=("C3D20R", "C3D8I", "C3D8"), default="C3D20R",

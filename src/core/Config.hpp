@@ -1,6 +1,7 @@
 //! Typed, validated contents of a deck (see inputs/README.md for every key).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <map>
 #include <string>
@@ -164,9 +165,21 @@ struct KinematicConfig {
 struct ForceConfig {
   BoxRegion region;      //!< nodes inside share the force, by mass
   Vec3d force{0, 0, 0};  //!< total force in newtons
-  double start = 0;      //!< s
-  double end = 1e300;    //!< s (exclusive)
-  Curve curve;           //!< time factor of `force` ([[curve]]); empty: 1
+  //! s; start < 0: a pre-load, applied before the run begins: the body starts at rest in its
+  //! static equilibrium under the pre-loads (released at `end`, e.g. 0 for a pluck).
+  double start = 0;
+  double end = 1e300;  //!< s (exclusive)
+  Curve curve;         //!< time factor of `force` ([[curve]]); empty: 1
+};
+
+//! [[point_mass]] (alias [[attached_mass]]): a rigid part of `mass` kg glued to the body over
+//! the reference positions in `region` (a face patch or a volume): a sensor board, a bolted box.
+//! The voxel solvers add it to the nodes in the region, the MPM solver to the particles in it,
+//! in proportion to their own mass, so it moves with them and gravity pulls on it.
+struct PointMassConfig {
+  BoxRegion region;
+  double mass = 0;    //!< kg
+  std::string where;  //!< "FILE:LINE" of the entry, for messages
 };
 
 //! A static rigid obstacle the object cannot enter, with Coulomb friction on contact.
@@ -240,8 +253,24 @@ struct Config {
   double end_time = 0;  //!< s
   Vec3d gravity{0, 0, -9.81};
   // [domain]
-  double voxel_size = 0;  //!< m
-  int padding = 1;        //!< empty voxels around the object's bounds
+  //! Cell edges along x, y, z, m (domain.voxel_size: one number for cubes, or [hx, hy, hz]).
+  //! The voxel solvers (ElastoGen, Newton, diagnose's model) take any three; the MPM solver
+  //! takes cubes only (the deck reader refuses others).
+  Vec3d spacing{0, 0, 0};
+  //! The largest of the cell edges (every edge when the cells are cubes), m.
+  double voxel_size = 0;
+  bool cubic_cells() const { return spacing[0] == spacing[1] && spacing[1] == spacing[2]; }
+  //! The cell edges to use: `spacing`, or, where code has set voxel_size alone since the deck
+  //! was read (a refined copy), cubes of voxel_size (cubic or unset spacing) or the spacing
+  //! scaled so that its largest edge is voxel_size.
+  Vec3d cell_edges() const {
+    const double largest = std::max({spacing[0], spacing[1], spacing[2]});
+    if (largest == voxel_size) return spacing;
+    if (!(largest > 0) || cubic_cells()) return {voxel_size, voxel_size, voxel_size};
+    const double f = voxel_size / largest;
+    return {spacing[0] * f, spacing[1] * f, spacing[2] * f};
+  }
+  int padding = 1;  //!< empty voxels around the object's bounds
   std::vector<GeometryConfig> geometry;
   //! [material], or the first [[material]]: the material of everything no later entry claims.
   MaterialConfig material;
@@ -252,6 +281,7 @@ struct Config {
   std::vector<FixedConfig> fixed;
   std::vector<KinematicConfig> kinematic;
   std::vector<ForceConfig> forces;
+  std::vector<PointMassConfig> point_masses;
   std::vector<ColliderConfig> colliders;
   std::vector<TractionConfig> tractions;
   MpmConfig mpm;

@@ -47,9 +47,9 @@ BoxRegion read_box(const Section& s) {
 }
 
 //! `start` (>= 0) and `end` (> start) of an active window; absent keys keep their defaults.
-void read_window(const Section& s, double& start, double& end) {
+void read_window(const Section& s, double& start, double& end, bool preload = false) {
   start = s.number("start", start);
-  require_at_least(s, "start", start, 0);
+  if (!preload) require_at_least(s, "start", start, 0);
   end = s.number("end", end);
   s.check(end > start, "end", fmt::format("must be > start ({}), got {}", start, end));
 }
@@ -126,8 +126,18 @@ void read_simulation(const Section& s, Config& c) {
 }
 
 void read_domain(const Section& s, Config& c) {
-  c.voxel_size = s.number("voxel_size");
-  require_positive(s, "voxel_size", c.voxel_size);
+  const toml::node* size = s.node("voxel_size");
+  if (size && size->is_array()) {
+    c.spacing = s.vec3("voxel_size");
+    for (int a = 0; a < 3; ++a)
+      s.check(c.spacing[a] > 0, "voxel_size",
+              fmt::format("every cell edge must be > 0, got {}", c.spacing));
+  } else {
+    const double h = s.number("voxel_size");
+    require_positive(s, "voxel_size", h);
+    c.spacing = {h, h, h};
+  }
+  c.voxel_size = std::max({c.spacing[0], c.spacing[1], c.spacing[2]});
   c.padding = s.integer("padding", c.padding);
   require_at_least(s, "padding", c.padding, 0);
 }
@@ -625,9 +635,23 @@ ForceConfig read_force(const Section& s, const std::vector<Curve>& curves) {
   ForceConfig f;
   f.region = read_box(s);
   f.force = s.vec3("force");
-  read_window(s, f.start, f.end);
+  // start < 0: a pre-load (the run starts in static equilibrium under it).
+  read_window(s, f.start, f.end, true);
+  s.check(f.start >= 0 || f.end >= 0, "end",
+          fmt::format("a pre-load (start < 0) is released at end >= 0, got {}", f.end));
   f.curve = curve_of(s, curves);
+  s.check(f.start >= 0 || f.curve.name().empty(), "curve",
+          "a pre-load (start < 0) takes no [[curve]]: it is constant until its end");
   return f;
+}
+
+PointMassConfig read_point_mass(const Section& s, std::string_view table) {
+  s.reject_unknown(key_names(table));
+  PointMassConfig p;
+  p.region = read_box(s);
+  p.mass = s.number("mass");
+  require_positive(s, "mass", p.mass);
+  return p;
 }
 
 ColliderConfig read_collider(const Section& s) {
@@ -890,6 +914,10 @@ Config parse_deck(const std::string& text, const std::string& source_name,
   record_where(root, loc, c);
   // Tables a solver does not read are refused by check_deck_use below, after all are valid.
   const bool mpm = c.solver.method == "mpm";
+  if (mpm && !c.cubic_cells())
+    table_section(root, "domain", loc)
+        .fail("voxel_size",
+              fmt::format("the MPM grid takes cubic cells (one number), got {}", c.spacing));
   if (mpm) read_mpm(table_section(root, "mpm", loc), c.mpm);
   const std::vector<Section> curves = array_sections(root, "curve", loc);
   for (const Section& s : curves) c.curves.push_back(read_curve(s, c.curves));
@@ -900,6 +928,11 @@ Config parse_deck(const std::string& text, const std::string& source_name,
     c.kinematic.push_back(read_kinematic(s, c.curves));
   for (const Section& s : array_sections(root, "force", loc))
     c.forces.push_back(read_force(s, c.curves));
+  for (const char* table : {"point_mass", "attached_mass"})
+    for (const Section& s : array_sections(root, table, loc)) {
+      c.point_masses.push_back(read_point_mass(s, table));
+      c.point_masses.back().where = s.where("mass");
+    }
   for (const Section& s : array_sections(root, "collider", loc)) {
     c.colliders.push_back(read_collider(s));
     // The MPM's box obstacle is a still cuboid: the grid nodes inside it stop (no slip).

@@ -92,6 +92,16 @@ toml::table typed_value(const std::string& value, Kind kind, const std::string& 
       if (node && node->is_array()) return *doc;
       throw InputError(fmt::format("{}: expected an array of 3 numbers like [0, 0, -9.81], got {}",
                                    where, node ? type_name(*node) : "'" + value + "'"));
+    case Kind::NumberOrVec3:
+      if (node && (node->is_array() || node->is_integer() || node->is_floating_point()))
+        return *doc;
+      if (!node)
+        if (auto v = parse_c_number(value)) {
+          out.insert("v", *v);
+          return out;
+        }
+      throw InputError(fmt::format("{}: expected a number or an array of 3 numbers, got {}", where,
+                                   node ? type_name(*node) : "'" + value + "'"));
     case Kind::Numbers:
       if (node && node->is_array()) return *doc;
       throw InputError(fmt::format("{}: expected an array of numbers like [0, 0.1, 1], got {}",

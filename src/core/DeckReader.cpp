@@ -33,7 +33,7 @@ std::vector<KeySpec> keys(std::string_view spec) {
     if (colon == std::string_view::npos || colon + 2 != word.size())
       throw RuntimeError(fmt::format("deck schema: malformed key '{}'", word));
     // The letters in the order of Kind's enumerators.
-    const std::size_t kind = std::string_view("snivl").find(word.back());
+    const std::size_t kind = std::string_view("snivlx").find(word.back());
     if (kind == std::string_view::npos)
       throw RuntimeError(fmt::format("deck schema: unknown kind in '{}'", word));
     out.push_back({word.substr(0, colon), static_cast<Kind>(kind)});
@@ -47,7 +47,7 @@ std::vector<KeySpec> keys(std::string_view spec) {
 const std::vector<TableSpec>& schema() {
   static const std::vector<TableSpec> tables = {
       {"simulation", false, keys("name:s dt:n end_time:n gravity:v")},
-      {"domain", false, keys("voxel_size:n padding:i")},
+      {"domain", false, keys("voxel_size:x padding:i")},
       {"geometry", true,
        keys("type:s name:s lo:v hi:v center:v a:v b:v radius:n file:s grid:s scale:n translate:v "
             "rotate_axis:v rotate_degrees:n opacity_threshold:n fill_cells:i color:v")},
@@ -78,6 +78,8 @@ const std::vector<TableSpec>& schema() {
       {"kinematic", true,
        keys("lo:v hi:v center:v velocity:v angular_velocity:v start:n end:n curve:s")},
       {"force", true, keys("lo:v hi:v force:v start:n end:n curve:s")},
+      {"point_mass", true, keys("lo:v hi:v mass:n")},
+      {"attached_mass", true, keys("lo:v hi:v mass:n")},
       {"collider", true, keys("type:s point:v normal:v lo:v hi:v friction:n")},
       {"traction", true, keys("lo:v hi:v traction:v pressure:n start:n end:n curve:s")},
       {"curve", true, keys("name:s time:l factor:l")},

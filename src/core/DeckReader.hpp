@@ -13,7 +13,8 @@
 namespace gen4d::deck {
 
 //! What a key holds; decides how a --set value is parsed and how the key is read.
-enum class Kind { String, Number, Integer, Vec3, Numbers };
+//! A key's value: string, number, integer, [x, y, z], [numbers...], or a number or [x, y, z].
+enum class Kind { String, Number, Integer, Vec3, Numbers, NumberOrVec3 };
 
 struct KeySpec {
   std::string_view name;

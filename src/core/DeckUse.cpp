@@ -62,6 +62,8 @@ const Row kRows[] = {
      "hold supports with [[fixed]]"},
     {"force",                     {R, R, X, R, X},
      "the MPM takes [[boundary]] type = \"particle_impulse\"", kMpmDiagnose},
+    {"point_mass",                {R, R, R, R, R}, "", ""},
+    {"attached_mass",             {R, R, R, R, R}, "", ""},
     {"force.curve",               {R, R, X, X, X},
      "the MPM takes [[boundary]] type = \"particle_impulse\"",
      "give the load history as [[force]] steps (start, end)"},
@@ -130,7 +132,7 @@ long line_of(const std::string& where) {
 
 bool is_array_table(const std::string& table) {
   for (const char* t : {"geometry", "material", "boundary", "fixed", "kinematic", "force",
-                        "collider", "traction", "curve"})
+                        "collider", "traction", "curve", "point_mass", "attached_mass"})
     if (table == t) return true;
   return false;
 }

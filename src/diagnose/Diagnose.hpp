@@ -23,6 +23,10 @@ struct DiagnoseOptions {
   int max_iterations = 10;           //!< TAO iterations per fit
   //! Measure the model's spatial discretisation error (h/2 rerun) before keeping an effect.
   bool refinement_check = true;
+  //! Value columns (x, y, z, ax, ay, az) not measured in any recording file (ReadOptions).
+  std::vector<std::string> unmeasured;
+  //! The recording's zero-phase low-pass cutoff (Hz; 0: none), applied to the predictions alike.
+  double lowpass_hz = 0;
 };
 
 struct Channel;

@@ -30,12 +30,13 @@ struct CheckLevel {
   std::string skipped;  //!< why the level cannot be used
 };
 
-CheckLevel check_level(const Config& cfg, double voxel_size, const Observations& obs,
+//! The deck at cells `factor` times its own (every edge).
+CheckLevel check_level(const Config& cfg, double factor, const Observations& obs,
                        const std::vector<std::array<double, 3>>& X, const Prediction& base_pred,
                        const std::vector<char>& scored, const char* what) {
   CheckLevel L;
   Config level_cfg = cfg;
-  level_cfg.voxel_size = voxel_size;
+  level_cfg.voxel_size = cfg.voxel_size * factor;  // cell_edges() scales the spacing along
   try {
     L.model = make_forward_model(level_cfg);
   } catch (const InputError& e) {
@@ -127,8 +128,7 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
   // error), the h/2 runs are not needed. A pre-asymptotic 2h model only widens the bound (the h/2
   // runs then decide).
   if (decided_below > 0) {
-    const CheckLevel C =
-        check_level(cfg, 2 * cfg.voxel_size, obs, X, base_pred, scored, "voxel_size x 2");
+    const CheckLevel C = check_level(cfg, 2.0, obs, X, base_pred, scored, "voxel_size x 2");
     if (C.skipped.empty()) {
       Evaluator cev(comm, *C.model, C.fobs);
       Physics c0 = rest_matched(*C.model, calibrated), c1 = c0;
@@ -160,8 +160,7 @@ RefinementCheck refinement_check(MPI_Comm comm, const Config& cfg, const Observa
     }
   }
   // 2. Voxels of h/2.
-  const CheckLevel F =
-      check_level(cfg, cfg.voxel_size / 2, obs, X, base_pred, scored, "voxel_size / 2");
+  const CheckLevel F = check_level(cfg, 0.5, obs, X, base_pred, scored, "voxel_size / 2");
   R.voxel_size = cfg.voxel_size / 2;
   if (!F.skipped.empty()) {
     R.skipped = F.skipped;

@@ -28,6 +28,8 @@ struct EffectContext {
   double total_mass = 0;    //!< kg
   double surface_area = 0;  //!< exposed area, m^2
   double lowest_point = 0;  //!< lowest observed marker z, m
+  //! The recording's accelerometers' reference points (real sensors have mass).
+  std::vector<Vec3d> sensors;
   bool has_region = false;  //!< a region was located by the stiffness sensitivity map
   BoxRegion region;
 };
@@ -96,6 +98,9 @@ class Effect : public TermSource {
   //! frequency grid also starts, each at the deck's nu: for effects whose region the
   //! linearised stiffness map may miss. Empty: the located region only.
   virtual std::vector<BoxRegion> start_regions(const EffectContext&) const { return {}; }
+  //! False for effects diagnose tries only when --effects names them (their verdicts against
+  //! the rest of the library are not yet measured on the blind sets).
+  virtual bool in_default_library() const { return true; }
 };
 
 //! What an effect says of itself.

@@ -50,7 +50,8 @@ std::string physics_key(const Physics& p, double horizon) {
   put_text(p.law);
   put(p.youngs_modulus), put(p.poisson_ratio), put(p.density);
   for (double g : p.gravity) put(g);
-  put(p.dt), put(p.load_scale), put(p.newton_tolerance), put(p.refresh_contraction);
+  put(p.dt), put(p.load_scale), put(p.time_offset), put(p.release_duration), put(p.lowpass_hz),
+      put(p.newton_tolerance), put(p.refresh_contraction);
   put(horizon);
   put(p.effects.size());
   for (const auto& e : p.effects) {
@@ -93,6 +94,15 @@ std::vector<Prediction> Evaluator::run(const std::vector<Physics>& batch) {
     if (tr.ok) {
       p.y.reserve(obs_.size());
       for (std::size_t c = 0; c < tr.channel.size(); ++c) {
+        if (!obs_.measured.empty() && !obs_.measured[c].empty()) {
+          // The measured values only; samples after the horizon: NaN.
+          const std::vector<char>& m = obs_.measured[c];
+          for (std::size_t j = 0; j < m.size(); ++j)
+            if (m[j])
+              p.y.push_back(j < tr.channel[c].size() ? tr.channel[c][j]
+                                                     : std::numeric_limits<double>::quiet_NaN());
+          continue;
+        }
         p.y.insert(p.y.end(), tr.channel[c].begin(), tr.channel[c].end());
         // Samples after the horizon: NaN, so a mask that reads them shows at once.
         p.y.resize(p.y.size() + 3 * (obs_.requests[c].t.size() - tr.channel[c].size() / 3),
@@ -595,6 +605,8 @@ PetscErrorCode tao_hessian(Tao, Vec X, Mat H, Mat, void* ctx) {
 
 LsqResult least_squares(Evaluator& ev, const LsqProblem& prob, std::vector<double> z0,
                         int max_iterations, bool final_jacobian) {
+  if (z0.size() + prob.tail.size() == prob.lo.size())
+    z0.insert(z0.end(), prob.tail.begin(), prob.tail.end());
   const PetscInt n = static_cast<PetscInt>(z0.size());
   for (std::size_t j = 0; j < z0.size(); ++j) z0[j] = std::clamp(z0[j], prob.lo[j], prob.hi[j]);
   TaoContext c;

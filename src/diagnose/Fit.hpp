@@ -17,8 +17,9 @@ namespace gen4d::diagnose {
 
 constexpr double kPi = 3.14159265358979323846;
 
-//! The observations: every sample of every channel, 3 components, flattened channel by
-//! channel; `sigma` weights each one (noise of its channel kind).
+//! The observations: every measured value of every sample of every channel, flattened channel
+//! by channel, sample by sample, component by component; `sigma` weights each one (noise of its
+//! channel kind).
 struct Observations {
   std::vector<ChannelRequest> requests;
   std::vector<std::string> ids;
@@ -29,6 +30,9 @@ struct Observations {
   std::vector<double> sigma;   //!< noise of each value
   std::vector<char> train;     //!< used by the fits
   std::vector<char> heldout;   //!< used only to score
+  //! Per channel, per requested sample and component (3 k + d): 1 where the value was measured
+  //! (and so is one of y); empty: every value (of every channel, or of that channel) measured.
+  std::vector<std::vector<char>> measured;
   std::size_t size() const { return y.size(); }
 };
 
@@ -140,6 +144,9 @@ struct LsqProblem {
   std::vector<double> step;    //!< finite-difference step on z
   //! Physics of a point z.
   std::function<Physics(const std::vector<double>& z)> physics;
+  //! Start values of trailing parameters (a release state): a start z0 shorter than lo is
+  //! completed with them.
+  std::vector<double> tail;
   const std::vector<char>* mask = nullptr;  //!< observations fitted
   //! A fit whose chi-square stays above this after kAbandonAfter iterations, and no longer
   //! halves per iteration, is given up (it cannot compete with a fit that already reached a

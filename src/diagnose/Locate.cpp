@@ -172,6 +172,9 @@ void scene_scales(State& s) {
   ctx.max_mises = s.base.pred.max_mises;
   ctx.max_speed = s.base.pred.max_speed;
   ctx.total_mass = model.volume() * s.calibrated.density;
+  ctx.sensors.clear();
+  for (const ChannelRequest& r : s.obs.requests)
+    if (r.acceleration) ctx.sensors.push_back(r.at.X);
   ctx.surface_area = model.exposed_area();
   double amp = 0, low = 1e300;
   std::map<std::pair<int, int>, std::pair<double, double>> range;

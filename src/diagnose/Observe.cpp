@@ -17,21 +17,27 @@ namespace gen4d::diagnose {
 
 double estimate_noise(const std::vector<const Channel*>& chans) {
   std::vector<double> est;
+  std::vector<std::size_t> k;  // the samples of one component that were measured
   for (const Channel* c : chans)
-    for (int d = 0; d < 3; ++d)
-      for (std::size_t b = 0; b + 7 <= c->t.size(); b += 7) {
+    for (int d = 0; d < 3; ++d) {
+      k.clear();
+      for (std::size_t j = 0; j < c->t.size(); ++j)
+        if (c->has(j, d)) k.push_back(j);
+      for (std::size_t b = 0; b + 7 <= k.size(); b += 7) {
         Eigen::Matrix<double, 7, 4> A;
         Eigen::Matrix<double, 7, 1> y;
-        const double tm = c->t[b + 3];
-        const double s = std::max(c->t[b + 6] - c->t[b], 1e-300);
+        const double tm = c->t[k[b + 3]];
+        const double s = std::max(c->t[k[b + 6]] - c->t[k[b]], 1e-300);
         for (int i = 0; i < 7; ++i) {
-          const double x = (c->t[b + static_cast<std::size_t>(i)] - tm) / s;
+          const std::size_t j = k[b + static_cast<std::size_t>(i)];
+          const double x = (c->t[j] - tm) / s;
           A(i, 0) = 1, A(i, 1) = x, A(i, 2) = x * x, A(i, 3) = x * x * x;
-          y[i] = c->value[b + static_cast<std::size_t>(i)][static_cast<std::size_t>(d)];
+          y[i] = c->value[j][static_cast<std::size_t>(d)];
         }
         const Eigen::Vector4d coef = A.colPivHouseholderQr().solve(y);
         est.push_back((y - A * coef).squaredNorm() / 3.0);
       }
+    }
   if (est.empty()) return std::nan("");
   return std::sqrt(median(est) / 0.789);
 }
@@ -58,6 +64,9 @@ Observations build_observations(const ForwardModel& model, const Recording& rec,
   for (int i = 0; i < hb; ++i)
     block_out[static_cast<std::size_t>((2 * i + 1) * nblocks / (2 * hb))] = 1;
   const std::size_t nch = rec.channels.size();
+  // Masks only where some value is not measured: a full recording's observations are as ever.
+  const bool partial = std::any_of(rec.channels.begin(), rec.channels.end(),
+                                   [](const Channel& c) { return !c.measured.empty(); });
   std::vector<char> chan_out(nch, 0);
   const int hm =
       nch >= 4 && holdout > 0
@@ -78,12 +87,19 @@ Observations build_observations(const ForwardModel& model, const Recording& rec,
     r.t = ch.t;
     obs.requests.push_back(r);
     obs.ids.push_back(ch.id);
+    if (partial) {
+      auto& m = obs.measured.emplace_back();
+      if (!ch.measured.empty()) m.resize(3 * ch.t.size());
+      for (std::size_t k = 0; k < ch.t.size() && !m.empty(); ++k)
+        for (int d = 0; d < 3; ++d) m[3 * k + static_cast<std::size_t>(d)] = ch.has(k, d) ? 1 : 0;
+    }
     const double sigma = r.acceleration ? noise_acc : noise_pos;
     for (std::size_t k = 0; k < ch.t.size(); ++k) {
       int blk = te > tb ? static_cast<int>((ch.t[k] - tb) / (te - tb) * nblocks) : 0;
       blk = std::clamp(blk, 0, nblocks - 1);
       const bool out = block_out[static_cast<std::size_t>(blk)] || chan_out[c];
       for (int d = 0; d < 3; ++d) {
+        if (!ch.has(k, d)) continue;  // not measured: never a value
         obs.y.push_back(ch.value[k][static_cast<std::size_t>(d)]);
         obs.t.push_back(ch.t[k]);
         obs.channel.push_back(static_cast<int>(c));
@@ -105,6 +121,7 @@ void open_library(State& s) {
   std::vector<const Effect*>& library = s.library;
   if (s.opt.effects.empty()) {
     for (const auto& e : effect_library()) {
+      if (!e->in_default_library()) continue;  // only when --effects names it
       if (model.models(e->name(), ""))
         library.push_back(e.get());
       else
@@ -130,9 +147,11 @@ void read_observations(State& s) {
   const ForwardModel& model = *s.model;
   Diagnosis& D = s.D;
   Recording& rec = s.rec;
-  rec = read_recording(s.opt.recordings[0]);
+  ReadOptions ro;
+  ro.unmeasured = s.opt.unmeasured;
+  rec = read_recording(s.opt.recordings[0], ro);
   for (std::size_t i = 1; i < s.opt.recordings.size(); ++i)
-    merge_recordings(rec, read_recording(s.opt.recordings[i]));
+    merge_recordings(rec, read_recording(s.opt.recordings[i], ro));
   D.recording = rec.source;
   check_attached(rec, [&](const std::array<double, 3>& X) { return model.inside(X); });
   for (const Channel& c : rec.channels)
@@ -142,20 +161,34 @@ void read_observations(State& s) {
                       "start (t = 0)",
                       c.file, c.line.front(), id_column(c.kind), c.id, c.t.front()));
   s.obs = build_observations(model, rec, s.opt.holdout, D.noise_position, D.noise_acceleration);
+  if (s.opt.lowpass_hz > 0 && model.kind() != "voxel")
+    throw InputError("command line: --lowpass: the " + model.kind() +
+                     " model samples without a filter (voxel decks take it)");
+  for (const Channel& c : rec.channels)
+    if (s.opt.lowpass_hz > 0 && c.t.size() > 1) {
+      const double span = (c.t.back() - c.t.front()) / static_cast<double>(c.t.size() - 1);
+      if (s.opt.lowpass_hz >= 0.5 / span)
+        throw InputError(fmt::format(
+            "command line: --lowpass {} Hz is at or above the Nyquist frequency ({:.4g} Hz) of "
+            "{} '{}' in {}",
+            s.opt.lowpass_hz, 0.5 / span, id_column(c.kind), c.id, c.file));
+    }
   const Observations& obs = s.obs;
   s.ev = std::make_unique<Evaluator>(s.comm, model, s.obs);
   long ntrain = 0;
   for (char c : obs.train) ntrain += c;
   s.ntrain = ntrain;
   s.N = static_cast<double>(ntrain);
+  const std::size_t unmeasured = 3 * rec.samples() - obs.size();
   log::info(
-      "gen4d diagnose: {} channels, {} values ({} fitted, {} held out); "
-      "noise {:.3g} m{}",
+      "gen4d diagnose: {} channels, {} values ({} fitted, {} held out{}); noise {}{}",
       rec.channels.size(), obs.size(), ntrain, obs.size() - static_cast<std::size_t>(ntrain),
-      D.noise_position,
+      unmeasured > 0 ? fmt::format("; {} not measured, left out", unmeasured) : std::string(),
+      std::isnan(D.noise_position) ? std::string() : fmt::format("{:.3g} m", D.noise_position),
       std::isnan(D.noise_acceleration)
           ? std::string()
-          : fmt::format(", {:.3g} m/s^2 (accelerometers)", D.noise_acceleration));
+          : fmt::format("{}{:.3g} m/s^2 (accelerometers)", std::isnan(D.noise_position) ? "" : ", ",
+                        D.noise_acceleration));
 }
 
 //! The solver's own numerical dissipation: the nominal deck rerun at dt/2; dt is halved where its
@@ -167,6 +200,9 @@ void numerical_check(State& s) {
   Evaluator& ev = *s.ev;
   Physics& nominal = s.nominal;
   nominal = s.model->nominal();
+  release_state(s);  // a pre-loaded deck: released as its fit starts
+  apply_release(s, {}, 0, nominal);
+  nominal.lowpass_hz = s.opt.lowpass_hz;
   D.youngs_nominal = nominal.youngs_modulus;
   D.poisson_nominal = nominal.poisson_ratio;
   D.density = nominal.density;

@@ -51,11 +51,16 @@ struct State {
   std::chrono::steady_clock::time_point phase_t0;
 
   // calibrate
-  LsqProblem pb;               //!< the baseline's problem: log E and nu
-  std::vector<double> events;  //!< the deck's load changes
-  double t_free = 0;           //!< the last load change: free motion after it
-  LsqResult base;              //!< the calibrated baseline's fit
-  double chi2_0 = 0;           //!< its chi-square
+  //! The release state of a deck with pre-loads ([[force]] start < 0), fitted with E and nu and
+  //! then held by every effect's fit as trailing parameters (LsqProblem::tail): the pre-load's
+  //! scale (log) and the model's time at the recording's t = 0. Empty without pre-loads.
+  std::vector<ParamSpec> release_specs;
+  std::vector<double> release_z;  //!< their values (z coordinates): the start, then the fit
+  LsqProblem pb;                  //!< the baseline's problem: log E and nu (and the release state)
+  std::vector<double> events;     //!< the deck's load changes
+  double t_free = 0;              //!< the last load change: free motion after it
+  LsqResult base;                 //!< the calibrated baseline's fit
+  double chi2_0 = 0;              //!< its chi-square
   Physics calibrated;
 
   // locate
@@ -108,8 +113,16 @@ void report(State& s);
 
 // Shared by the stages (Calibrate.cpp, Locate.cpp, Screen.cpp, Refit.cpp, Select.cpp).
 
-//! The baseline's physics at z = (log E, nu).
+//! The baseline's physics at z = (log E, nu), the release state from s.release_z.
 Physics base_physics(const State& s, const std::vector<double>& z);
+//! Sets p's release state (load_scale, time_offset) from z[first ...] when z holds it there, else
+//! from s.release_z; nothing without pre-loads.
+void apply_release(const State& s, const std::vector<double>& z, std::size_t first, Physics& p);
+//! The release state's parameters and start (State::release_specs, release_z), for a deck with
+//! pre-loads on the voxel model; once.
+void release_state(State& s);
+//! Appends the release state's bounds, steps and start (LsqProblem::tail) to a problem.
+void add_release(const State& s, LsqProblem& pr);
 //! log E moved so that the dominant frequency of the motion p predicts becomes w_target (E ~
 //! omega^2); zE unchanged when p failed.
 double match_frequency(const State& s, double zE, double w_target, const Prediction& p);

@@ -13,6 +13,7 @@
 #include <cstring>
 #include <filesystem>
 #include <iterator>
+#include <map>
 #include <string_view>
 #include <unordered_map>
 #include <utility>
@@ -30,11 +31,30 @@ namespace h5 = io::h5;
 enum Role { kId, kX, kY, kZ, kT, kV0, kV1, kV2, kRoles };
 using Names = std::array<const char*, kRoles>;
 using Values = std::array<double, kRoles>;  // indexed by Role; the kId slot is unused
+using Measured = std::array<bool, 3>;       // per value role kV0..kV2
 
 const Names& column_names(ChannelKind kind) {
   static const Names position{"marker", "X", "Y", "Z", "t", "x", "y", "z"};
   static const Names acceleration{"sensor", "X", "Y", "Z", "t", "ax", "ay", "az"};
   return kind == ChannelKind::Position ? position : acceleration;
+}
+
+//! Which value columns of `kind` opt.unmeasured names; InputError for a name that is no value
+//! column.
+Measured forced_unmeasured(ChannelKind kind, const ReadOptions& opt) {
+  const Names& names = column_names(kind);
+  const auto& all = value_column_names();
+  Measured off{false, false, false};
+  for (const std::string& n : opt.unmeasured) {
+    if (std::find(all.begin(), all.end(), n) == all.end()) {
+      std::string list;
+      for (const auto& a : all) list += (list.empty() ? "" : ", ") + a;
+      throw InputError(
+          fmt::format("--unmeasured: '{}' is not a value column (one of {})", n, list));
+    }
+    for (int d = 0; d < 3; ++d) off[static_cast<std::size_t>(d)] |= n == names[kV0 + d];
+  }
+  return off;
 }
 
 std::string joined_names(const Names& names) {
@@ -93,12 +113,19 @@ class Builder {
   Builder(Where where, ChannelKind kind)
       : where_(std::move(where)), kind_(kind), names_(column_names(kind)) {}
 
-  void add(std::string_view id, const Values& v, long line) {
+  //! A sample; m: which of its values were measured (the others are ignored). A sample with
+  //! none measured is skipped.
+  void add(std::string_view id, const Values& v, const Measured& m, long line) {
     for (int r = kX; r < kRoles; ++r) {
+      if (r >= kV0 && !m[static_cast<std::size_t>(r - kV0)]) continue;
       if (!std::isfinite(v[r])) {
         throw InputError(fmt::format("{}: value {} is not finite (NaN or inf)",
                                      where_.at(line, names_[r]), v[r]));
       }
+    }
+    if (!m[0] && !m[1] && !m[2]) {
+      unmeasured_.emplace(std::string(id), line);  // keeps the first line
+      return;
     }
     Channel& c = channel(id, v);
     const std::array<double, 3> X{v[kX], v[kY], v[kZ]};
@@ -119,18 +146,31 @@ class Builder {
           c.t.back(), where_.unit(), c.line.back()));
     }
     c.t.push_back(t);
-    c.value.push_back({v[kV0], v[kV1], v[kV2]});
+    c.value.push_back({m[0] ? v[kV0] : 0.0, m[1] ? v[kV1] : 0.0, m[2] ? v[kV2] : 0.0});
+    c.measured.push_back(m);
     c.line.push_back(line);
   }
 
-  //! The channels; throws when there are none or one has fewer than 2 samples.
+  //! The channels; throws when there are none, one has fewer than 2 samples or an id has no
+  //! measured value. A channel whose every value is measured keeps an empty mask.
   std::vector<Channel> finish(const std::string& none_message) {
+    for (const auto& [id, line] : unmeasured_) {
+      if (index_.count(id) == 0) {
+        throw InputError(
+            fmt::format("{}: {} '{}' has no measured value (every value is empty "
+                        "or not measured)",
+                        where_.at(line), names_[kId], id));
+      }
+    }
     if (channels_.empty()) throw InputError(none_message);
-    for (const Channel& c : channels_) {
+    for (Channel& c : channels_) {
       if (c.t.size() < 2) {
         throw InputError(fmt::format("{}: {} '{}' has only {} sample; at least 2 are needed",
                                      where_.at(c.line.front()), names_[kId], c.id, c.t.size()));
       }
+      const bool all = std::all_of(c.measured.begin(), c.measured.end(),
+                                   [](const Measured& m) { return m[0] && m[1] && m[2]; });
+      if (all) c.measured.clear();
     }
     return std::move(channels_);
   }
@@ -160,6 +200,7 @@ class Builder {
   const Names& names_;
   std::vector<Channel> channels_;
   std::unordered_map<std::string, std::size_t> index_;
+  std::map<std::string, long> unmeasured_;  //!< ids of samples with no measured value
   std::size_t last_ = static_cast<std::size_t>(-1);
 };
 
@@ -266,16 +307,20 @@ std::pair<ChannelKind, std::vector<int>> parse_header(const std::vector<std::str
     seen[r] = true;
     role[i] = r;
   }
-  for (int r = 0; r < kRoles; ++r) {
+  for (int r = 0; r < kV0; ++r) {
     if (!seen[r]) {
       throw InputError(fmt::format("{}:{}: missing column '{}' (expected the columns {})", file,
                                    line, names[r], joined_names(names)));
     }
   }
+  if (!seen[kV0] && !seen[kV1] && !seen[kV2]) {
+    throw InputError(fmt::format("{}:{}: no value column: at least one of {}, {}, {} is needed",
+                                 file, line, names[kV0], names[kV1], names[kV2]));
+  }
   return {kind, role};
 }
 
-Recording read_csv(const std::string& path) {
+Recording read_csv(const std::string& path, const ReadOptions& opt) {
   const std::string text = read_text(path);
   Lines lines(text);
   std::string_view line;
@@ -294,8 +339,17 @@ Recording read_csv(const std::string& path) {
   const Names& names = column_names(kind);
   const std::size_t columns = role.size();
 
+  // Value columns the header leaves out, or the options name, are never measured.
+  const Measured off = forced_unmeasured(kind, opt);
+  Measured present{false, false, false};
+  for (int r : role)
+    if (r >= kV0) present[static_cast<std::size_t>(r - kV0)] = true;
+  Measured column_on{};
+  for (std::size_t d = 0; d < 3; ++d) column_on[d] = present[d] && !off[d];
+
   Builder builder(Where{path, false, ""}, kind);
   Values v{};
+  Measured m{};
   while (lines.next(line)) {
     if (skipped(line)) continue;
     const long n = lines.number();
@@ -305,6 +359,7 @@ Recording read_csv(const std::string& path) {
           fmt::format("{}:{}: expected {} fields, got {}", path, n, columns, fields.size()));
     }
     std::string_view id;
+    m = column_on;
     for (std::size_t i = 0; i < columns; ++i) {
       const std::string_view field = trim(fields[i]);
       const int r = role[i];
@@ -314,6 +369,14 @@ Recording read_csv(const std::string& path) {
         }
         id = field;
         continue;
+      }
+      if (r >= kV0) {  // a value: empty (not measured) or ignored when not measured
+        const auto d = static_cast<std::size_t>(r - kV0);
+        if (field.empty()) m[d] = false;
+        if (!m[d]) {
+          v[r] = 0.0;
+          continue;
+        }
       }
       // The text is NUL-terminated and a number cannot run past the separator that ends
       // `field`, so strtod stops inside the field or right at its end.
@@ -325,7 +388,7 @@ Recording read_csv(const std::string& path) {
       }
       v[r] = x;
     }
-    builder.add(id, v, n);
+    builder.add(id, v, m, n);
   }
   Recording rec;
   rec.source = path;
@@ -411,13 +474,16 @@ std::vector<std::string> read_ids(hid_t ds, hsize_t n, const std::string& shown,
 
 //! Reads the datasets of one kind from `loc` (the root or a group named `group`).
 void read_hdf5_kind(hid_t loc, const std::string& file, const std::string& group, ChannelKind kind,
-                    std::vector<Channel>& out) {
+                    const Measured& off, std::vector<Channel>& out) {
   const Names& names = column_names(kind);
   auto shown = [&](int r) { return group + "/" + names[r]; };
   hsize_t rows = 0;
   h5::Handle id_ds = open_1d(loc, names[kId], shown(kId), file, rows);
   std::array<std::vector<double>, kRoles> columns;
+  Measured present{false, false, false};
   for (int r = kX; r < kRoles; ++r) {
+    if (r >= kV0 && !h5::link_exists(loc, names[r])) continue;  // a value not measured
+    if (r >= kV0) present[static_cast<std::size_t>(r - kV0)] = true;
     hsize_t n = 0;
     h5::Handle ds = open_1d(loc, names[r], shown(r), file, n);
     if (n != rows) {
@@ -426,17 +492,31 @@ void read_hdf5_kind(hid_t loc, const std::string& file, const std::string& group
     }
     columns[r] = read_numbers(ds.get(), n, shown(r), file);
   }
+  if (!present[0] && !present[1] && !present[2]) {
+    throw InputError(fmt::format("{}: missing datasets {}, {}, {}: at least one value is needed",
+                                 file, shown(kV0), shown(kV1), shown(kV2)));
+  }
   const std::vector<std::string> ids = read_ids(id_ds.get(), rows, shown(kId), file);
 
   Builder builder(Where{file, true, group}, kind);
   Values v{};
+  Measured m{};
   for (hsize_t i = 0; i < rows; ++i) {
     const long row = static_cast<long>(i);
     if (ids[i].empty()) {
       throw InputError(fmt::format("{}: dataset {} row {}: empty id", file, shown(kId), row));
     }
-    for (int r = kX; r < kRoles; ++r) v[r] = columns[r][i];
-    builder.add(ids[i], v, row);
+    for (int r = kX; r < kRoles; ++r) {
+      if (r < kV0) {
+        v[r] = columns[r][i];
+        continue;
+      }
+      // NaN: not measured.
+      const auto d = static_cast<std::size_t>(r - kV0);
+      m[d] = present[d] && !off[d] && !std::isnan(columns[r][i]);
+      v[r] = m[d] ? columns[r][i] : 0.0;
+    }
+    builder.add(ids[i], v, m, row);
   }
   for (Channel& c :
        builder.finish(fmt::format("{}: dataset {} is empty: no samples", file, shown(kId)))) {
@@ -444,7 +524,7 @@ void read_hdf5_kind(hid_t loc, const std::string& file, const std::string& group
   }
 }
 
-Recording read_hdf5(const std::string& path) {
+Recording read_hdf5(const std::string& path, const ReadOptions& opt) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw InputError(path + ": no such file");
   h5::Handle file = h5::open_file_serial(path);
@@ -457,7 +537,8 @@ Recording read_hdf5(const std::string& path) {
                               std::pair{"accelerations", ChannelKind::Acceleration}}) {
       if (!h5::link_exists(file.get(), name)) continue;
       h5::Handle group = h5::open_group(file.get(), name, h5::Failure::Input, path);
-      read_hdf5_kind(group.get(), path, std::string("/") + name, kind, rec.channels);
+      read_hdf5_kind(group.get(), path, std::string("/") + name, kind, forced_unmeasured(kind, opt),
+                     rec.channels);
     }
     return rec;
   }
@@ -473,8 +554,8 @@ Recording read_hdf5(const std::string& path) {
                      ": missing dataset /marker (or /sensor, or the groups /positions and "
                      "/accelerations)");
   }
-  read_hdf5_kind(file.get(), path, "", marker ? ChannelKind::Position : ChannelKind::Acceleration,
-                 rec.channels);
+  const ChannelKind kind = marker ? ChannelKind::Position : ChannelKind::Acceleration;
+  read_hdf5_kind(file.get(), path, "", kind, forced_unmeasured(kind, opt), rec.channels);
   return rec;
 }
 
@@ -521,13 +602,22 @@ void write_kind(const Recording& rec, ChannelKind kind, const std::string& path)
       throw RuntimeError(
           fmt::format("{}: {} id '{}' cannot be written to CSV", path, names[kId], c.id));
     }
-    if (c.value.size() != c.t.size()) {
-      throw RuntimeError(fmt::format("{}: {} '{}' has {} times but {} values", path, names[kId],
-                                     c.id, c.t.size(), c.value.size()));
+    if (c.value.size() != c.t.size() || (!c.measured.empty() && c.measured.size() != c.t.size())) {
+      throw RuntimeError(fmt::format("{}: {} '{}' has {} times but {} values ({} masks)", path,
+                                     names[kId], c.id, c.t.size(), c.value.size(),
+                                     c.measured.size()));
     }
     for (std::size_t i = 0; i < c.t.size(); ++i) {
-      fmt::format_to(std::back_inserter(out), "{},{},{},{},{},{},{},{}\n", c.id, c.X[0], c.X[1],
-                     c.X[2], c.t[i], c.value[i][0], c.value[i][1], c.value[i][2]);
+      if (!c.has(i, 0) && !c.has(i, 1) && !c.has(i, 2)) continue;
+      fmt::format_to(std::back_inserter(out), "{},{},{},{},{}", c.id, c.X[0], c.X[1], c.X[2],
+                     c.t[i]);
+      for (int d = 0; d < 3; ++d) {
+        if (c.has(i, d))
+          fmt::format_to(std::back_inserter(out), ",{}", c.value[i][static_cast<std::size_t>(d)]);
+        else
+          out.push_back(',');
+      }
+      out.push_back('\n');
     }
   }
   write_atomically(path, out);
@@ -567,13 +657,20 @@ const char* id_column(ChannelKind kind) {
   return column_names(kind)[kId];
 }
 
-Recording read_recording(const std::string& path) {
+const std::vector<std::string>& value_column_names() {
+  static const std::vector<std::string> names{"x", "y", "z", "ax", "ay", "az"};
+  return names;
+}
+
+Recording read_recording(const std::string& path, const ReadOptions& opt) {
+  // Every name is checked, whichever kind the file holds.
+  forced_unmeasured(ChannelKind::Position, opt);
   const std::string ext = lower_extension(path);
-  if (ext == ".csv") return read_csv(path);
-  if (ext == ".h5" || ext == ".hdf5") return read_hdf5(path);
+  if (ext == ".csv") return read_csv(path, opt);
+  if (ext == ".h5" || ext == ".hdf5") return read_hdf5(path, opt);
   std::error_code ec;
   if (!fs::exists(path, ec)) throw InputError(path + ": no such file");
-  return has_hdf5_signature(path) ? read_hdf5(path) : read_csv(path);
+  return has_hdf5_signature(path) ? read_hdf5(path, opt) : read_csv(path, opt);
 }
 
 void merge_recordings(Recording& into, Recording&& more) {

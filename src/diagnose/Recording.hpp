@@ -7,6 +7,9 @@
 //! Lines starting with '#' and blank lines are skipped; CRLF line endings are accepted.
 //! HDF5: 1-D datasets named like the CSV columns, at the root (one kind) or in the groups
 //! /positions and /accelerations (both kinds); ids are integer or string datasets.
+//! Values not measured: an empty CSV cell, a value column left out (e.g. sensor,X,Y,Z,t,az),
+//! NaN or a missing value dataset in HDF5, or a column named in ReadOptions::unmeasured. A
+//! sample with no measured value is skipped; a channel with none is an error.
 //! Every error is an InputError naming the file and the line (CSV, 1-based) or the dataset and
 //! row (HDF5, 0-based).
 #pragma once
@@ -27,10 +30,16 @@ struct Channel {
   ChannelKind kind = ChannelKind::Position;
   std::array<double, 3> X{};                 // reference position, m
   std::vector<double> t;                     // s, strictly increasing
-  std::vector<std::array<double, 3>> value;  // x,y,z (position) or ax,ay,az
+  std::vector<std::array<double, 3>> value;  // x,y,z (position) or ax,ay,az; 0 if not measured
+  //! Per sample, which of the three values were measured; empty: all of them.
+  std::vector<std::array<bool, 3>> measured;
   std::vector<long> line;  // source line (CSV) or row index (HDF5) of each sample, for messages
   //! The file this channel was read from, for messages (empty: the recording's source).
   std::string file;
+  //! Whether component d (0, 1, 2) of sample k was measured.
+  bool has(std::size_t k, int d) const {
+    return measured.empty() || measured[k][static_cast<std::size_t>(d)];
+  }
 };
 
 struct Recording {
@@ -44,10 +53,20 @@ struct Recording {
 //! "marker" or "sensor": the word used for a channel of `kind` in files and messages.
 const char* id_column(ChannelKind kind);
 
+struct ReadOptions {
+  //! Value columns (x, y, z, ax, ay, az) not measured in any sample, whatever the file holds
+  //! there (files that write 0 for an axis the sensor lacks); names of the other kind are
+  //! ignored.
+  std::vector<std::string> unmeasured;
+};
+
+//! The value columns of both kinds: x, y, z, ax, ay, az.
+const std::vector<std::string>& value_column_names();
+
 //! Reads a CSV (.csv) or HDF5 (.h5/.hdf5) recording; throws InputError naming file and
-//! line/dataset. Other extensions are read as HDF5 when the file carries the HDF5 signature, else
-//! as CSV.
-Recording read_recording(const std::string& path);
+//! line/dataset (or, for a name in opt.unmeasured that is no value column, the option).
+//! Other extensions are read as HDF5 when the file carries the HDF5 signature, else as CSV.
+Recording read_recording(const std::string& path, const ReadOptions& opt = {});
 
 //! Appends the channels of `more` (e.g. accelerometers in a second file); duplicate ids of the
 //! same kind are an error (InputError naming both files and the id).
@@ -64,7 +83,8 @@ std::string acceleration_csv_path(const std::string& path);
 
 //! Writes a recording as CSV (one file per kind present: path for positions, and, if any
 //! accelerometers, path with suffix "-acc" before the extension) atomically (temporary name +
-//! rename). Numbers are written with round-trip precision. Used by tests and the generator of
+//! rename). Numbers are written with round-trip precision; a value not measured is an empty
+//! cell, a sample with none measured is left out. Used by tests and the generator of
 //! synthetic data. Throws RuntimeError on an I/O failure or an id that CSV cannot hold.
 void write_recording_csv(const Recording& rec, const std::string& path);
 

@@ -86,6 +86,15 @@ void json_result(JsonObject& j, const Diagnosis& d) {
                    jnum(d.youngs_modulus), jnum(d.poisson_ratio), jnum(d.density),
                    jnum(d.youngs_modulus / d.density), jnum(d.youngs_nominal),
                    jnum(d.poisson_nominal)));
+  if (!d.release.empty())
+    j.kv("release_state",
+         fmt::format("{{\"preload_scale\": {}, \"time_offset\": {}, \"release_duration\": {}}}",
+                     jnum(d.release[0].value), jnum(d.release[1].value), jnum(d.release[2].value)));
+  j.kv("modes_hz",
+       fmt::format("{{\"measured\": [{}, {}], \"fitted\": [{}, {}], "
+                   "\"modal_damping_ratio\": [{}, {}]}}",
+                   jnum(d.modes_measured[0]), jnum(d.modes_measured[1]), jnum(d.modes_fitted[0]),
+                   jnum(d.modes_fitted[1]), jnum(d.modal_damping[0]), jnum(d.modal_damping[1])));
   j.kv("region", d.has_region ? jbox(d.region) : "null");
   j.kv("located_region", d.located ? jbox(d.located_region) : "null");
   std::string tw = "[";
@@ -362,6 +371,24 @@ void markdown_fit(std::ostringstream& m, const Diagnosis& d) {
             "and nu absorb"
           : "voxel model: trilinear voxels a few to the thickness are stiffer in bending than "
             "the continuum, and E, nu absorb that");
+  if (!d.release.empty())
+    m << fmt::format(
+        "Release state (fitted with E and nu, then held): the pre-load is {:.4g} times the "
+        "deck's, released over {:.3g} s, and the recording's t = 0 is the model's t = {:.4g} "
+        "s.\n\n",
+        d.release[0].value, d.release[2].value, d.release[1].value);
+  if (d.modes_measured[0] > 0) {
+    m << "| mode | measured (Hz) | fitted (Hz) | difference | modal damping ratio |\n"
+         "|---|---|---|---|---|\n";
+    for (std::size_t k = 0; k < 2; ++k)
+      if (d.modes_measured[k] > 0)
+        m << fmt::format("| {} | {:.4g} | {:.4g} | {:+.2f} % | {} |\n", k + 1, d.modes_measured[k],
+                         d.modes_fitted[k], 100 * (d.modes_fitted[k] / d.modes_measured[k] - 1),
+                         std::isnan(d.modal_damping[k])
+                             ? std::string("-")
+                             : fmt::format("{:.3g} %", 100 * d.modal_damping[k]));
+    m << "\n";
+  }
   if (std::isfinite(d.noise_fitted_position) || std::isfinite(d.noise_fitted_acceleration))
     m << fmt::format(
         "Noise on the fitted model's residual (the same local cubics): {} m{}. The weights "

@@ -164,6 +164,14 @@ struct Diagnosis {
   double youngs_modulus = 0, poisson_ratio = 0, density = 0;
   double youngs_nominal = 0, poisson_nominal = 0;
   std::vector<ParamEstimate> baseline_ci;
+  //! The release state fitted with E (a deck with pre-loads): preload_scale, time_offset (s).
+  std::vector<ParamEstimate> release;
+  //! The two lowest modal frequencies (Hz) of the recording and of the final fit's prediction
+  //! after the last load change (0: none stands out of the noise), and the final fit's modal
+  //! damping ratios of those modes where it has Rayleigh damping (NaN otherwise).
+  std::array<double, 2> modes_measured{{0, 0}}, modes_fitted{{0, 0}};
+  std::array<double, 2> modal_damping{
+      {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()}};
   bool has_region = false;
   BoxRegion region;
   BoxRegion located_region;  //!< from the sensitivity map (even when not selected)

@@ -218,9 +218,16 @@ void verdict(State& s) {
     D.verdict = "none";
     // "No missing physics" only where the noise and the voxels' own error could make the misfit:
     // else it is physics outside the library, or an effect the screening ranked too low to refit.
-    // The discretisation check decides, on voxels of 2h where their bound suffices.
-    const double decide = D.budget.bound / kUnidentifiedFactor;
-    if (D.misfit && !D.budget.exhausted && s.has_holdout && s.opt.refinement_check) {
+    // The discretisation check decides, on voxels of 2h where their bound suffices. The budget
+    // counts the noise at half its estimated variance, an upper bound of what an effect could
+    // explain; a claim that something is missing takes the lower bound as well, the misfit beyond
+    // the noise at its full estimated variance and 3 sd of its spread: on a calibrated deck that
+    // fits to the noise (a null case on fine enough voxels) the budget's other half is noise.
+    const double beyond_noise =
+        D.budget.scored_chi2 - D.budget.noise_chi2 - 3 * std::sqrt(2 * D.budget.noise_chi2);
+    const double decide = std::min(D.budget.bound, beyond_noise) / kUnidentifiedFactor;
+    const bool at_noise = D.misfit && !D.budget.exhausted && beyond_noise <= 0;
+    if (D.misfit && !D.budget.exhausted && !at_noise && s.has_holdout && s.opt.refinement_check) {
       if (!D.refinement.done || (D.refinement.upper_bound && D.refinement.chi2 >= decide)) {
         D.refinement = refinement_check(s.comm, s.cfg, obs, s.channel_X, calibrated, base.pred,
                                         (*s.scored), s.t_free, decide);
@@ -255,6 +262,13 @@ void verdict(State& s) {
           "no more than that error, so none was refitted",
           D.chi2_red, D.whiteness_p, D.budget.scored_chi2, D.budget.noise_chi2, D.refinement.chi2,
           D.budget.bound);
+    else if (at_noise)
+      D.unexplained = fmt::format(
+          "the calibrated deck leaves chi2/dof {:.3g} and residual whiteness p = {:.2g}, but its "
+          "held-out misfit ({:.4g}) is within the noise's share ({:.4g} at the residual's noise, "
+          "3 sd {:.3g}), and no effect of the library improves the held-out fit significantly",
+          D.chi2_red, D.whiteness_p, D.budget.scored_chi2, D.budget.noise_chi2,
+          3 * std::sqrt(2 * D.budget.noise_chi2));
     else if (D.misfit)
       D.unexplained = fmt::format(
           "the calibrated deck leaves chi2/dof {:.3g} and residual whiteness p "

@@ -192,18 +192,20 @@ double vuong_z(const Observations& obs, const std::vector<char>& mask, const Pre
 void residual_noise(const Observations& obs, const Prediction& p, double& res_pos,
                     double& res_acc) {
   // Each channel's residual as a recording (the values of obs run channel by channel, sample by
-  // sample, component by component).
+  // sample, component by component; a sample's time is new, and only its measured values are).
   std::vector<Channel> res;
   for (std::size_t i = 0; i < obs.size(); ++i) {
     const auto c = static_cast<std::size_t>(obs.channel[i]);
     if (res.size() <= c) res.resize(c + 1);
     Channel& ch = res[c];
     ch.kind = obs.requests[c].acceleration ? ChannelKind::Acceleration : ChannelKind::Position;
-    if (obs.component[i] == 0) {
+    if (ch.t.empty() || obs.t[i] != ch.t.back()) {
       ch.t.push_back(obs.t[i]);
       ch.value.push_back({0, 0, 0});
+      ch.measured.push_back({false, false, false});
     }
     ch.value.back()[static_cast<std::size_t>(obs.component[i])] = obs.y[i] - p.y[i];
+    ch.measured.back()[static_cast<std::size_t>(obs.component[i])] = true;
   }
   std::vector<const Channel*> pos, acc;
   for (const Channel& c : res) (c.kind == ChannelKind::Position ? pos : acc).push_back(&c);

@@ -212,8 +212,43 @@ void sum_cost(State& s) {
 
 }  // namespace
 
+namespace {
+
+//! The two lowest modal frequencies of the recording and of the final fit (after the last load
+//! change), and the fit's modal damping ratios of those modes where it has Rayleigh damping:
+//! zeta_i = alpha / (2 omega_i) + beta omega_i / 2.
+void modal_summary(State& s) {
+  Diagnosis& D = s.D;
+  const double two_pi = 2 * std::acos(-1.0);
+  D.modes_measured = {s.modes.omega1 / two_pi, s.modes.omega2 / two_pi};
+  if (!D.fitted_pred.ok || !(s.modes.omega1 > 0)) return;
+  const ModalFrequencies f =
+      modal_frequencies(s.obs, D.fitted_pred.y, s.t_free, s.modes.omega1, s.modes.omega2);
+  D.modes_fitted = {f.omega1 / two_pi, f.omega2 / two_pi};
+  if (D.effect == "damping") {
+    double alpha = 0, beta = 0;
+    for (const ParamEstimate& p : D.effect_parameters) {
+      if (p.name == "alpha") alpha = p.value;
+      if (p.name == "beta") beta = p.value;
+    }
+    for (int m = 0; m < 2; ++m) {
+      const double w = (m == 0 ? f.omega1 : f.omega2);
+      if (w > 0) D.modal_damping[static_cast<std::size_t>(m)] = alpha / (2 * w) + beta * w / 2;
+    }
+  }
+  log::info("modes: measured {:.4g} Hz, {:.4g} Hz; fitted {:.4g} Hz, {:.4g} Hz{}",
+            D.modes_measured[0], D.modes_measured[1], D.modes_fitted[0], D.modes_fitted[1],
+            std::isnan(D.modal_damping[0])
+                ? std::string()
+                : fmt::format("; modal damping {:.3g} %, {:.3g} %", 100 * D.modal_damping[0],
+                              100 * D.modal_damping[1]));
+}
+
+}  // namespace
+
 void report(State& s) {
   Diagnosis& D = s.D;
+  modal_summary(s);
   // Signatures of the calibrated deck's misfit (on the worst marker's main component).
   {
     const int worst = worst_channel(D);

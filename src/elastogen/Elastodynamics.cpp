@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <type_traits>
 
+#include "core/Error.hpp"
 #include "core/Log.hpp"
 #include "materials/Arap.hpp"
 #include "materials/FixedCorotated.hpp"
@@ -152,10 +153,11 @@ void Elastodynamics::build_traction_loads() {
   // the faces through it separate pairs of its 8 neighbour voxels, which the ghosted
   // occupancy holds, so each share is computed by the rank that owns the node, in a fixed
   // order, whatever the decomposition (as the lumped masses are).
-  const double h = sys_.h(), quarter = 0.25 * h * h;
+  const Vec3d& h = sys_.spacing();
   traction_loads_.assign(cfg_.tractions.size(), {});
   if (cfg_.tractions.empty()) return;
   std::vector<long long> local_quarters(cfg_.tractions.size(), 0);
+  std::vector<parallel::ExactSum> local_area(cfg_.tractions.size());
   std::vector<std::array<double, 3>> load(cfg_.tractions.size());
   std::vector<int> faces(cfg_.tractions.size());
   for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long i, long j, long k) {
@@ -165,6 +167,7 @@ void Elastodynamics::build_traction_loads() {
     std::fill(faces.begin(), faces.end(), 0);
     for (int a = 0; a < 3; ++a) {
       const int b = (a + 1) % 3, c = (a + 2) % 3;
+      const double quarter = 0.25 * h[b] * h[c];  // a quarter of the face's area
       for (int q = 0; q < 4; ++q) {
         // The face in the plane x_a = p_a between voxels `lower` and `upper` (bit a = 0 / 1).
         int lower = 0;
@@ -180,12 +183,13 @@ void Elastodynamics::build_traction_loads() {
         double normal[3] = {0, 0, 0};  // outward: from the solid voxel to the empty one
         normal[a] = s_lo ? 1.0 : -1.0;
         Vec3d centre = {p[0], p[1], p[2]};
-        centre[b] += ((lower >> b & 1) - 0.5) * h;
-        centre[c] += ((lower >> c & 1) - 0.5) * h;
+        centre[b] += ((lower >> b & 1) - 0.5) * h[b];
+        centre[c] += ((lower >> c & 1) - 0.5) * h[c];
         for (std::size_t r = 0; r < cfg_.tractions.size(); ++r) {
           const TractionConfig& tc = cfg_.tractions[r];
           if (!tc.region.contains(centre)) continue;
           ++faces[r];
+          local_area[r].add(quarter);
           for (int d = 0; d < 3; ++d)
             load[r][d] += quarter * (tc.traction[d] - tc.pressure * normal[d]);
         }
@@ -197,6 +201,8 @@ void Elastodynamics::build_traction_loads() {
         traction_loads_[r].push_back({n, {load[r][0], load[r][1], load[r][2]}});
     }
   });
+  std::vector<double> area(cfg_.tractions.size());
+  solver_.reducer().sum(local_area.data(), area.data(), area.size());
   for (std::size_t r = 0; r < cfg_.tractions.size(); ++r) {
     const long long quarters = solver_.reducer().sum(local_quarters[r]);
     if (quarters == 0)
@@ -205,8 +211,7 @@ void Elastodynamics::build_traction_loads() {
           "effect",
           r);
     else
-      log::info("traction region {}: {} boundary faces, {:g} m^2", r, quarters / 4,
-                static_cast<double>(quarters) * quarter);
+      log::info("traction region {}: {} boundary faces, {:g} m^2", r, quarters / 4, area[r]);
   }
 }
 
@@ -331,6 +336,177 @@ void Elastodynamics::external_forces(double t, std::vector<double>& f) const {
     for (const NodeLoad& l : traction_loads_[r])
       for (int d = 0; d < 3; ++d) f[3 * l.node + d] += factor * l.f[d];
   }
+}
+
+bool Elastodynamics::has_preloads() const {
+  return std::any_of(cfg_.forces.begin(), cfg_.forces.end(),
+                     [](const ForceConfig& f) { return f.start < 0 && f.end >= 0; });
+}
+
+void Elastodynamics::preload_forces(std::vector<double>& f) const {
+  const auto& m = sys_.mass();
+  std::fill(f.begin(), f.end(), 0.0);
+  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long i, long j, long k) {
+    if (!sys_.free_mask()[n]) return;
+    for (int d = 0; d < 3; ++d) f[3 * n + d] = m[n] * cfg_.gravity[d];
+    const auto p = sys_.rest_position(i, j, k);
+    for (std::size_t r = 0; r < cfg_.forces.size(); ++r) {
+      const ForceConfig& fc = cfg_.forces[r];
+      if (!(fc.start < 0 && fc.end >= 0) || force_region_mass_[r] == 0.0) continue;
+      if (!fc.region.contains({p[0], p[1], p[2]})) continue;
+      const double factor = fc.curve(0.0);
+      for (int d = 0; d < 3; ++d)
+        f[3 * n + d] += factor * fc.force[d] * m[n] / force_region_mass_[r];
+    }
+  });
+}
+
+void Elastodynamics::tangent_apply(std::vector<double>& v, std::vector<double>& y) {
+  // K v = -(f_int(x + e v) - f_int(x)) / e (fint_ holds f_int(x)), e moving no node by more
+  // than 1e-6 of a cell: the truncation error is ~1e-6 of K v at elastic strains (none for
+  // a linear law), the rounding error ~1e-9; Newton's residual is exact whatever it is.
+  const auto& free = sys_.free_mask();
+  double vmax = 0;
+  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+    for (int d = 0; d < 3; ++d) {
+      if (!free[n]) v[3 * n + d] = 0.0;
+      vmax = std::max(vmax, std::fabs(v[3 * n + d]));
+    }
+  });
+  vmax = solver_.reducer().max(vmax);
+  std::fill(y.begin(), y.end(), 0.0);
+  if (vmax == 0.0) return;
+  solver_.halo().gather(v.data());
+  const double e = 1e-6 * sys_.h() / vmax;
+  std::vector<double>& xp = xn_;  // x_ + e v on the ghosted box
+  std::vector<double>& fp = y_;
+  for (std::size_t q = 0; q < x_.size(); ++q) xp[q] = x_[q] + e * v[q];
+  internal_forces(xp, fp);
+  for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+    if (!free[n]) return;
+    for (int d = 0; d < 3; ++d) y[3 * n + d] = (fint_[3 * n + d] - fp[3 * n + d]) / e;
+  });
+}
+
+PreloadStats Elastodynamics::settle_preloads() {
+  PreloadStats st;
+  reset_to_rest();
+  long long held = 0;
+  for_owned(sys_.owned(), sys_.ghosted(),
+            [&](std::size_t n, long, long, long) { held += sys_.fixed_mask()[n]; });
+  if (solver_.reducer().sum(held) == 0)
+    throw InputError(cfg_.source +
+                     ": [[force]] pre-loads (start < 0) need a [[fixed]] or [[kinematic]] "
+                     "region to hold the body");
+  const auto& free = sys_.free_mask();
+  std::vector<double> f(fext_.size()), r(fext_.size()), p(fext_.size()), z(fext_.size()),
+      kp(fext_.size()), dx(fext_.size()), diag;
+  preload_forces(f);
+  sys_.diagonal(k_, 0.0, diag);
+  auto dot = [&](const std::vector<double>& a, const std::vector<double>& b) {
+    parallel::ExactSum acc;
+    for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+      if (!free[n]) return;
+      for (int d = 0; d < 3; ++d) acc.add(a[3 * n + d] * b[3 * n + d]);
+    });
+    double g = 0;
+    solver_.reducer().sum(&acc, &g, 1);
+    return g;
+  };
+  // r = f_int(x) + f on free owned nodes: the negative gradient of phi(x) = E(x) - f.(x - X)
+  // (X the rest positions, in x0 at the start); phi is returned in `phi`.
+  std::vector<double> rest = x_;
+  auto residual_at_x = [&](double& phi) {
+    parallel::ExactSum acc[2];
+    acc[0] = internal_forces(x_, fint_);
+    for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+      for (int d = 0; d < 3; ++d) {
+        const std::size_t q = 3 * n + d;
+        r[q] = free[n] ? fint_[q] + f[q] : 0.0;
+        acc[1].add(-f[q] * (x_[q] - rest[q]));
+      }
+    });
+    double g[2];
+    solver_.reducer().sum(acc, g, 2);
+    phi = g[0] + g[1];
+    return std::sqrt(dot(r, r));
+  };
+  const double fnorm = std::sqrt(dot(f, f));
+  double phi = 0;
+  double rnorm = residual_at_x(phi);
+  constexpr int kMaxNewton = 20;
+  constexpr long kMaxCg = 100000;
+  const double tol = 1e-8 * fnorm;
+  while (rnorm > tol && st.newton_iterations < kMaxNewton) {
+    // K dx = r by Jacobi-preconditioned CG, to 1e-8 of ||r||.
+    std::fill(dx.begin(), dx.end(), 0.0);
+    for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+      for (int d = 0; d < 3; ++d) z[3 * n + d] = free[n] ? r[3 * n + d] / diag[n] : 0.0;
+    });
+    std::vector<double> res = r;
+    p = z;
+    double rz = dot(res, z);
+    const double stop = 1e-8 * rnorm;
+    for (long it = 0; it < kMaxCg; ++it) {
+      tangent_apply(p, kp);
+      const double pkp = dot(p, kp);
+      if (!(pkp > 0)) break;
+      const double alpha = rz / pkp;
+      for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+        for (int d = 0; d < 3; ++d) {
+          dx[3 * n + d] += alpha * p[3 * n + d];
+          res[3 * n + d] -= alpha * kp[3 * n + d];
+        }
+      });
+      ++st.cg_iterations;
+      if (std::sqrt(dot(res, res)) <= stop) break;
+      for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+        for (int d = 0; d < 3; ++d) z[3 * n + d] = free[n] ? res[3 * n + d] / diag[n] : 0.0;
+      });
+      const double rz_new = dot(res, z);
+      const double beta = rz_new / rz;
+      rz = rz_new;
+      for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+        for (int d = 0; d < 3; ++d) p[3 * n + d] = z[3 * n + d] + beta * p[3 * n + d];
+      });
+    }
+    // Backtracking: halve the step while it raises both the energy and the residual (stiff
+    // stretching makes a full step's residual grow where the energy falls; near the solution
+    // the energy's change is below its rounding and the residual decides).
+    const std::vector<double> x0 = x_;
+    double step = 1.0, trial = rnorm, phi_trial = phi;
+    for (int half = 0; half < 12; ++half, step *= 0.5) {
+      for_owned(sys_.owned(), sys_.ghosted(), [&](std::size_t n, long, long, long) {
+        if (!free[n]) return;
+        for (int d = 0; d < 3; ++d) x_[3 * n + d] = x0[3 * n + d] + step * dx[3 * n + d];
+      });
+      solver_.halo().gather(x_.data());
+      trial = residual_at_x(phi_trial);
+      if (phi_trial < phi || trial < rnorm) break;
+    }
+    ++st.newton_iterations;
+    if (!(phi_trial < phi || trial < rnorm)) {  // no progress left at this precision
+      x_ = x0;
+      rnorm = residual_at_x(phi);
+      break;
+    }
+    // A small residual that a Newton step hardly lowers is the rounding level of the forces.
+    const bool stalled = trial > 0.5 * rnorm && trial < 1e-4 * fnorm;
+    rnorm = trial;
+    phi = phi_trial;
+    if (stalled) break;
+  }
+  st.relative_residual = fnorm > 0 ? rnorm / fnorm : 0.0;
+  std::fill(v_.begin(), v_.end(), 0.0);
+  sync_ghosts();
+  log::info(
+      "pre-load: static equilibrium in {} Newton step(s), {} CG iterations, residual {:.2e} of "
+      "the load",
+      st.newton_iterations, st.cg_iterations, st.relative_residual);
+  if (st.relative_residual > 1e-4)
+    log::info("warning: the pre-load's static solve stopped at a residual of {:.2e} of the load",
+              st.relative_residual);
+  return st;
 }
 
 parallel::ExactSum Elastodynamics::internal_forces(const std::vector<double>& x,

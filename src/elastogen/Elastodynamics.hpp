@@ -30,6 +30,13 @@ struct StepStats {
   double penetration = 0;      //!< deepest penetration (m) before that push-out
 };
 
+//! What the pre-load's static solve did.
+struct PreloadStats {
+  int newton_iterations = 0;
+  long cg_iterations = 0;
+  double relative_residual = 0;  //!< ||f_int + f|| / ||f|| at the end
+};
+
 class Elastodynamics {
  public:
   Elastodynamics(VoxelSystem& sys, const Config& cfg, PhaseTimers& timers);
@@ -44,6 +51,15 @@ class Elastodynamics {
 
   //! Advances from time t to t + dt.
   StepStats step(double t);
+
+  //! Whether the deck has pre-loads: [[force]] entries active at t = 0- (start < 0 <= end).
+  bool has_preloads() const;
+  //! Puts the body at rest (v = 0) in static equilibrium under the pre-loads and gravity,
+  //! from the rest state: Newton's method on the run's own elastic energy, each step solved
+  //! by conjugate gradients (Jacobi-preconditioned, the tangent applied matrix-free as a
+  //! difference of the internal forces) with exact sums, so the state does not depend on the
+  //! rank count. InputError when nothing holds the body. Collective.
+  PreloadStats settle_preloads();
 
   struct Energy {
     double kinetic = 0, elastic = 0, gravity = 0;
@@ -63,6 +79,11 @@ class Elastodynamics {
 
  private:
   void external_forces(double t, std::vector<double>& f) const;
+  //! Gravity plus the pre-loads at t = 0- on free owned nodes (0 on the others).
+  void preload_forces(std::vector<double>& f) const;
+  //! y = K v on free owned nodes (K the tangent stiffness at x_, ghosts of x_ current, fint_
+  //! = f_int(x_)); v's owned values are read, its ghosts refreshed; xn_ and y_ are work.
+  void tangent_apply(std::vector<double>& v, std::vector<double>& y);
   //! Nodal loads of each [[traction]] table on this rank's free owned nodes.
   void build_traction_loads();
   //! Pushes free owned nodes out of the colliders (with friction) and refreshes x's ghosts.

@@ -16,6 +16,9 @@ struct HexStencil {
   double dN[8][8][3];
   //! Unit-cube Laplacian stiffness K[l][m] = sum_q 1/8 dN_l(q) . dN_m(q).
   double K[8][8];
+  //! Its part along each axis, Kd[d][l][m] = sum_q 1/8 dN_l,d(q) dN_m,d(q): a cell of edges
+  //! h_d has the Laplacian hx hy hz sum_d Kd[d] / h_d^2.
+  double Kd[3][8][8];
 
   static const HexStencil& get() {
     static const HexStencil s;
@@ -45,6 +48,11 @@ struct HexStencil {
         for (int q = 0; q < 8; ++q)
           for (int d = 0; d < 3; ++d) s += 0.125 * dN[q][l][d] * dN[q][m][d];
         K[l][m] = s;
+        for (int d = 0; d < 3; ++d) {
+          double sd = 0;
+          for (int q = 0; q < 8; ++q) sd += 0.125 * dN[q][l][d] * dN[q][m][d];
+          Kd[d][l][m] = sd;
+        }
       }
   }
 };
@@ -56,6 +64,15 @@ inline void deformation_gradient(const HexStencil& s, int q, const double xe[8][
   for (int l = 0; l < 8; ++l)
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b) F[3 * a + b] += xe[l][a] * s.dN[q][l][b] * inv_h;
+}
+
+//! The same for a cell of edges 1/inv_h[b] along axis b.
+inline void deformation_gradient(const HexStencil& s, int q, const double xe[8][3],
+                                 const double inv_h[3], double F[9]) {
+  for (int a = 0; a < 9; ++a) F[a] = 0.0;
+  for (int l = 0; l < 8; ++l)
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) F[3 * a + b] += xe[l][a] * s.dN[q][l][b] * inv_h[b];
 }
 
 //! Transposed convolution: adds w * P grad N_l(q) to the corner forces fe[l][3].

@@ -43,8 +43,14 @@ struct HexGauss {
   }
 
   //! F_q (row-major 3x3) at the eight Gauss points q = q0 + 2 q1 + 4 q2 from the corner
-  //! positions xe[l][3] (corner l = a + 2b + 4c at local (a, b, c)).
+  //! positions xe[l][3] (corner l = a + 2b + 4c at local (a, b, c)) of a cube of edge 1/inv_h.
   GEN4D_HD static void gradients(const double xe[8][3], double inv_h, double F[8][9]) {
+    const double inv[3] = {inv_h, inv_h, inv_h};
+    gradients(xe, inv, F);
+  }
+
+  //! The same for a cell of edges 1/inv_h[b] along axis b (column b of F scales by inv_h[b]).
+  GEN4D_HD static void gradients(const double xe[8][3], const double inv_h[3], double F[8][9]) {
     for (int b = 0; b < 3; ++b) {
       int o1, o2;
       others(b, o1, o2);
@@ -54,7 +60,7 @@ struct HexGauss {
           const int l0 = s << o1 | t << o2, l1 = l0 | 1 << b;
           for (int a = 0; a < 3; ++a) edge[s][t][a] = xe[l1][a] - xe[l0][a];
         }
-      blend(edge, kGp * inv_h, kGm * inv_h, col);
+      blend(edge, kGp * inv_h[b], kGm * inv_h[b], col);
       for (int q = 0; q < 8; ++q) {
         const double* c = col[q >> o1 & 1][q >> o2 & 1];
         for (int a = 0; a < 3; ++a) F[q][3 * a + b] = c[a];
@@ -65,6 +71,12 @@ struct HexGauss {
   //! Node forces fe[l][3] = scale * sum_q P_q grad N_l(q) (overwritten, not accumulated), the
   //! transposed convolution of gradients(); scale = quadrature weight / h.
   GEN4D_HD static void forces(const double P[8][9], double scale, double fe[8][3]) {
+    const double sc[3] = {scale, scale, scale};
+    forces(P, sc, fe);
+  }
+
+  //! The same for a cell of unequal edges: scale[b] = quadrature weight / h_b.
+  GEN4D_HD static void forces(const double P[8][9], const double scale[3], double fe[8][3]) {
     for (int l = 0; l < 8; ++l)
       for (int a = 0; a < 3; ++a) fe[l][a] = 0.0;
     for (int b = 0; b < 3; ++b) {
@@ -76,7 +88,7 @@ struct HexGauss {
           const int q0 = u << o1 | v << o2, q1 = q0 | 1 << b;
           for (int a = 0; a < 3; ++a) sum[u][v][a] = P[q0][3 * a + b] + P[q1][3 * a + b];
         }
-      blend(sum, kGp * scale, kGm * scale, edge);
+      blend(sum, kGp * scale[b], kGm * scale[b], edge);
       for (int s = 0; s < 2; ++s)
         for (int t = 0; t < 2; ++t) {
           const int l0 = s << o1 | t << o2, l1 = l0 | 1 << b;

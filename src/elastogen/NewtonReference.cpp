@@ -95,7 +95,10 @@ void NewtonReference::assemble_jacobian(Mat J) {
   const HexStencil& s = HexStencil::get();
   const Box& oc = sys_.grid().owned_cells();
   const Box& G = sys_.ghosted();
-  const double h = sys_.h(), w = h * h * h / 8.0, inv_h = 1.0 / h;
+  const Vec3d& h = sys_.spacing();
+  const double w = h[0] * h[1] * h[2] / 8.0;
+  const double inv_h[3] = {1.0 / h[0], 1.0 / h[1], 1.0 / h[2]};
+  const bool cubic = sys_.cubic();
   std::array<long, 8> off{};
   for (int m = 0; m < 8; ++m)
     off[m] = static_cast<long>(
@@ -123,16 +126,24 @@ void NewtonReference::assemble_jacobian(Mat J) {
             stress_(Fm, Pm);
             for (int ij = 0; ij < 9; ++ij) C[ij][kl] = (Pp[ij] - Pm[ij]) / (2 * d);
           }
-          // K[(l,a),(m,b)] += w sum_{j,k} dN_l,j C[aj][bk] dN_m,k / h^2
+          // K[(l,a),(m,b)] += w sum_{j,k} dN_l,j C[aj][bk] dN_m,k / (h_j h_k)
           for (int l = 0; l < 8; ++l)
             for (int a = 0; a < 3; ++a)
               for (int m = 0; m < 8; ++m)
                 for (int b = 0; b < 3; ++b) {
                   double v = 0;
-                  for (int j = 0; j < 3; ++j)
-                    for (int k = 0; k < 3; ++k)
-                      v += s.dN[q][l][j] * C[3 * a + j][3 * b + k] * s.dN[q][m][k];
-                  Ke[(3 * l + a) * 24 + 3 * m + b] += w * inv_h * inv_h * v;
+                  if (cubic) {
+                    for (int j = 0; j < 3; ++j)
+                      for (int k = 0; k < 3; ++k)
+                        v += s.dN[q][l][j] * C[3 * a + j][3 * b + k] * s.dN[q][m][k];
+                    Ke[(3 * l + a) * 24 + 3 * m + b] += w * inv_h[0] * inv_h[0] * v;
+                  } else {
+                    for (int j = 0; j < 3; ++j)
+                      for (int k = 0; k < 3; ++k)
+                        v += s.dN[q][l][j] * inv_h[j] * C[3 * a + j][3 * b + k] * s.dN[q][m][k] *
+                             inv_h[k];
+                    Ke[(3 * l + a) * 24 + 3 * m + b] += w * v;
+                  }
                 }
         }
         MatStencil idx[24];

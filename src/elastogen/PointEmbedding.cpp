@@ -105,7 +105,9 @@ bool VoxelProbe::solid(const std::array<long, 3>& c) {
   if (auto it = cache_.find(key); it != cache_.end()) return it->second != 0;
   std::vector<std::uint8_t> occ;
   const Eigen::Vector3d origin(sys_.origin()[0], sys_.origin()[1], sys_.origin()[2]);
-  geometry::voxelize(shape_, origin, sys_.h(), c, {c[0] + 1, c[1] + 1, c[2] + 1}, occ);
+  const Vec3d& h = sys_.spacing();
+  geometry::voxelize(shape_, origin, Eigen::Vector3d(h[0], h[1], h[2]), c,
+                     {c[0] + 1, c[1] + 1, c[2] + 1}, occ);
   cache_.emplace(key, occ[0]);
   return occ[0] != 0;
 }
@@ -119,7 +121,7 @@ void PointPlacer::add(long id, const double* p) {
   std::array<double, 3> u{};
   std::array<long, 3> c0{};
   for (int a = 0; a < 3; ++a) {
-    u[a] = (p[a] - sys_.origin()[a]) / sys_.h();
+    u[a] = (p[a] - sys_.origin()[a]) / sys_.spacing()[a];
     c0[a] = std::clamp(static_cast<long>(std::floor(u[a])), 0L, cells[a] - 1);
   }
   if (!oc.contains(c0[0], c0[1], c0[2])) return;
@@ -136,7 +138,7 @@ void PointPlacer::add(long id, const double* p) {
 
 PointEmbedding::PointEmbedding(const VoxelSystem& sys, std::vector<PointAnchor> anchors, long count,
                                bool voxel_anchors, const std::string& what)
-    : comm_(sys.grid().comm()), count_(count), h_(sys.h()), voxel_anchors_(voxel_anchors) {
+    : comm_(sys.grid().comm()), count_(count), h_(sys.spacing()), voxel_anchors_(voxel_anchors) {
   rank_ = parallel::rank(comm_);
   size_ = parallel::size(comm_);
   const parallel::NodeGrid& grid = sys.grid();
@@ -221,7 +223,7 @@ void PointEmbedding::evaluate_gradients(const double* x, std::vector<double>& ou
   if (!voxel_anchors_)
     throw std::logic_error("PointEmbedding: gradients need points anchored in voxels");
   out.assign(9 * ids_.size(), 0.0);
-  const double inv_h = 1.0 / h_;
+  const double inv_h[3] = {1.0 / h_[0], 1.0 / h_[1], 1.0 / h_[2]};
   for (std::size_t v = 0; v < ids_.size(); ++v) {
     const auto g = corner_weight_gradients(t_[v]);
     const double* x0 = x + 3 * base_[v];
@@ -235,7 +237,7 @@ void PointEmbedding::evaluate_gradients(const double* x, std::vector<double>& ou
         for (int a = 0; a < 3; ++a) F[3 * d + a] += dx * g[m][a];
       }
     }
-    for (int e = 0; e < 9; ++e) out[9 * v + e] = F[e] * inv_h;
+    for (int e = 0; e < 9; ++e) out[9 * v + e] = F[e] * inv_h[e % 3];
   }
 }
 

@@ -113,7 +113,7 @@ class PointEmbedding {
   MPI_Comm comm_;
   int rank_ = 0, size_ = 1;
   long count_ = 0;
-  double h_ = 1;
+  Vec3d h_{1, 1, 1};  // cell edges
   bool voxel_anchors_ = false;
   std::vector<long> ids_;
   std::vector<std::size_t> base_;  //!< ghosted linear index of the base node

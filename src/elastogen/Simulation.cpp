@@ -46,14 +46,19 @@ std::unique_ptr<geometry::Shape> make_part(const GeometryConfig& g, std::size_t 
 
 }  // namespace
 
+Vec3d cell_edges(const Config& cfg) {
+  return cfg.cell_edges();
+}
+
 DomainLayout layout_domain(const Config& cfg, const geometry::Shape& shape) {
   return layout_domain(cfg, shape.bounds());
 }
 
 DomainLayout layout_domain(const Config& cfg, const geometry::Aabb& b) {
   DomainLayout d;
-  const double h = cfg.voxel_size;
+  const Vec3d edges = cell_edges(cfg);
   for (int a = 0; a < 3; ++a) {
+    const double h = edges[a];
     const long cells = static_cast<long>(std::ceil((b.hi[a] - b.lo[a]) / h - 1e-9));
     d.nodes[a] = std::max(1L, cells) + 2L * cfg.padding + 1;
     d.origin[a] = b.lo[a] - cfg.padding * h;
@@ -102,9 +107,15 @@ DeckObject build_deck_object(const Config& cfg) {
     for (std::size_t k = 0; k + 2 < p.size(); k += 3)
       bounds.extend(Eigen::Vector3d(p[k], p[k + 1], p[k + 2]));
   }
+  if (obj.has_splat_parts && !cfg.cubic_cells())
+    throw InputError(cfg.source +
+                     ": key 'domain.voxel_size': [[geometry]] type = \"splats\" needs cubic "
+                     "cells (one voxel_size)");
   obj.layout = layout_domain(cfg, bounds);
-  const double spacing =
-      cfg.render.splat_spacing > 0 ? cfg.render.splat_spacing : 0.5 * cfg.voxel_size;
+  const Vec3d edges = cell_edges(cfg);
+  const double spacing = cfg.render.splat_spacing > 0
+                             ? cfg.render.splat_spacing
+                             : 0.5 * std::min({edges[0], edges[1], edges[2]});
   for (std::size_t i = 0; i < n; ++i) {
     const GeometryConfig& g = cfg.geometry[i];
     if (g.type == "splats") {
@@ -126,7 +137,8 @@ DeckObject build_deck_object(const Config& cfg) {
   return obj;
 }
 
-Simulation::Simulation(MPI_Comm comm, const Config& cfg) : comm_(comm), cfg_(cfg) {
+Simulation::Simulation(MPI_Comm comm, const Config& cfg)
+    : comm_(comm), cfg_(cfg), spacing_(cell_edges(cfg)) {
   rank_ = parallel::rank(comm);
   size_ = parallel::size(comm);
   if (cfg_.render.enabled) {  // bad render settings fail before the set-up's work
@@ -149,7 +161,7 @@ Simulation::Simulation(MPI_Comm comm, const Config& cfg) : comm_(comm), cfg_(cfg
                                  c.start[2] + c.count[2]};
     geometry::voxelize(*shape,
                        Eigen::Vector3d(layout_.origin[0], layout_.origin[1], layout_.origin[2]),
-                       cfg_.voxel_size, c.start, hi, occ);
+                       Eigen::Vector3d(spacing_[0], spacing_[1], spacing_[2]), c.start, hi, occ);
   }
   // Occupancy 1 + the material slot of each solid voxel, judged at its centre.
   std::vector<double> density{cfg_.material.density};
@@ -161,9 +173,9 @@ Simulation::Simulation(MPI_Comm comm, const Config& cfg) : comm_(comm), cfg_(cfg
         for (long i = c.start[0]; i < c.start[0] + c.count[0]; ++i) {
           std::uint8_t& o = occ[c.index(i, j, k)];
           if (!o) continue;
-          const double h = cfg_.voxel_size;
-          const Vec3d x{layout_.origin[0] + (i + 0.5) * h, layout_.origin[1] + (j + 0.5) * h,
-                        layout_.origin[2] + (k + 0.5) * h};
+          const Vec3d& h = spacing_;
+          const Vec3d x{layout_.origin[0] + (i + 0.5) * h[0], layout_.origin[1] + (j + 0.5) * h[1],
+                        layout_.origin[2] + (k + 0.5) * h[2]};
           int part = -1;
           for (std::size_t p = 0; p < object.parts.size() && part < 0; ++p)
             if (object.parts[p]->inside(Eigen::Vector3d(x[0], x[1], x[2])))
@@ -174,24 +186,30 @@ Simulation::Simulation(MPI_Comm comm, const Config& cfg) : comm_(comm), cfg_(cfg
   std::vector<BoxRegion> held;
   for (const auto& f : cfg_.fixed) held.push_back(f.region);
   for (const auto& k : cfg_.kinematic) held.push_back(k.region);
-  sys_ = std::make_unique<VoxelSystem>(*grid_, layout_.origin, cfg_.voxel_size, std::move(occ),
-                                       density, held);
+  sys_ = std::make_unique<VoxelSystem>(*grid_, layout_.origin, spacing_, std::move(occ), density,
+                                       held);
   if (sys_->global_solid_cells() == 0)
     throw InputError(cfg_.source + ": [[geometry]] produces no solid voxel at voxel_size " +
                      fmt::format("{:g}", cfg_.voxel_size) + " m; use a smaller voxel_size");
   // Every node prescribed is a valid (rigid-body) scene only when some of them move.
   if (sys_->global_free_nodes() == 0 && cfg_.kinematic.empty())
     throw InputError(cfg_.source + ": [[fixed]] regions hold every node; nothing can move");
+  sys_->add_point_masses(cfg_.point_masses);
+  for (const PointMassConfig& pm : cfg_.point_masses)
+    log::info("point mass {:g} kg on [{}] .. [{}] ({})", pm.mass, fmt::join(pm.region.lo, ", "),
+              fmt::join(pm.region.hi, ", "), pm.where);
   {
     PhaseTimers::Scope t(timers_, "setup");
     dyn_ = std::make_unique<Elastodynamics>(*sys_, cfg_, timers_);
   }
   log::info(
       "gen4d {}: '{}' on {} rank(s): grid {}x{}x{} nodes, {} solid voxels, {} free nodes "
-      "({} DoFs), h = {:g} m, k = {:.4g} Pa, {} subspace modes",
+      "({} DoFs), h = {} m, k = {:.4g} Pa, {} subspace modes",
       build::version, cfg_.name, size_, layout_.nodes[0], layout_.nodes[1], layout_.nodes[2],
       sys_->global_solid_cells(), sys_->global_free_nodes(), 3 * sys_->global_free_nodes(),
-      cfg_.voxel_size, dyn_->stiffness(), dyn_->global_solver().subspace_modes());
+      sys_->cubic() ? fmt::format("{:g}", spacing_[0])
+                    : fmt::format("[{:g}, {:g}, {:g}]", spacing_[0], spacing_[1], spacing_[2]),
+      dyn_->stiffness(), dyn_->global_solver().subspace_modes());
   if (cfg_.output.surface != "none") {
     PhaseTimers::Scope t(timers_, "setup");
     io::parse_surface_format(cfg_.output.surface, surface_format_);
@@ -274,11 +292,21 @@ void Simulation::load_checkpoint(const std::string& path) {
   unpack_owned(x, dyn_->x());
   unpack_owned(v, dyn_->v());
   dyn_->sync_ghosts();
+  started_ = true;
   step_ = meta.step;
   time_ = meta.time;
   frame_index_ = meta.frame_index;
   next_frame_time_ = meta.next_frame_time;
   log::info("restarted from {} at step {}, t = {:.6g} s", path, step_, time_);
+}
+
+void Simulation::prepare_start() {
+  if (started_) return;
+  started_ = true;
+  if (dyn_->has_preloads()) {
+    PhaseTimers::Scope t(timers_, "setup");
+    dyn_->settle_preloads();
+  }
 }
 
 std::string Simulation::write_checkpoint(const std::string& out_dir) {
@@ -312,12 +340,14 @@ std::unique_ptr<io::FrameWriter> Simulation::open_frames(const std::string& out_
   io::GridMeta meta;
   meta.node_dims = layout_.nodes;
   meta.origin = layout_.origin;
-  meta.spacing = cfg_.voxel_size;
-  meta.attributes = {{"deck", cfg_.text},
-                     {"version", build::version},
-                     {"git_revision", build::git_revision},
-                     {"ranks", std::to_string(size_)},
-                     {"solver", "elastogen"}};
+  meta.spacing = sys_->h();
+  meta.attributes = {
+      {"deck", cfg_.text},
+      {"cell_edges", fmt::format("{:.17g} {:.17g} {:.17g}", spacing_[0], spacing_[1], spacing_[2])},
+      {"version", build::version},
+      {"git_revision", build::git_revision},
+      {"ranks", std::to_string(size_)},
+      {"solver", "elastogen"}};
   auto writer = std::make_unique<io::FrameWriter>(comm_, path, meta);
   writer->write_occupancy(to_io(grid_->owned_cells()), owned_occupancy().data());
   return writer;
@@ -391,7 +421,10 @@ RunResult Simulation::run(const std::string& out_dir, bool append) {
   }
   const double dt = cfg_.dt;
   const long total_steps = static_cast<long>(std::ceil(cfg_.end_time / dt - 1e-9));
-  if (!append && step_ == 0) write_frame(*writer);
+  if (!append && step_ == 0) {
+    prepare_start();
+    write_frame(*writer);
+  }
   ProgressLog progress(step_, total_steps, cfg_.output.progress_interval);
   while (step_ < total_steps) {
     const StepStats st = dyn_->step(time_);

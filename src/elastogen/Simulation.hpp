@@ -22,6 +22,11 @@
 
 namespace gen4d::elastogen {
 
+//! The cell edges (hx, hy, hz) of a deck: Config::spacing; where code set Config::voxel_size
+//! alone (spacing unset or out of date), cubes of that edge, or the deck's edges scaled so
+//! that the largest is voxel_size.
+Vec3d cell_edges(const Config& cfg);
+
 //! Global grid of a deck: origin and node counts enclosing the object plus padding.
 struct DomainLayout {
   Vec3d origin{0, 0, 0};
@@ -68,6 +73,9 @@ class Simulation {
 
   //! Loads step, time and state from a checkpoint (any rank count).
   void load_checkpoint(const std::string& path);
+  //! The state of frame 0: the rest state, or with pre-loads the static equilibrium under them
+  //! (Elastodynamics::settle_preloads). run() calls it for a fresh run; once per simulation.
+  void prepare_start();
   //! Runs to end_time writing frames/checkpoints to out_dir. `append` continues the
   //! frame file of an earlier run (restart).
   RunResult run(const std::string& out_dir, bool append);
@@ -78,6 +86,8 @@ class Simulation {
   long step_index() const { return step_; }
   double time() const { return time_; }
   PhaseTimers& timers() { return timers_; }
+  //! The cell edges the run uses.
+  const Vec3d& spacing() const { return spacing_; }
   //! The surface written per frame (output.surface != "none"), else null.
   const SurfaceEmbedding* surface() const { return surface_.get(); }
   //! The splats carried by the voxels (splat parts or a [render] table), else null.
@@ -105,6 +115,8 @@ class Simulation {
 
   MPI_Comm comm_;
   Config cfg_;
+  Vec3d spacing_{0, 0, 0};
+  bool started_ = false;  // prepare_start() ran
   int rank_ = 0, size_ = 1;
   DomainLayout layout_;
   std::unique_ptr<parallel::NodeGrid> grid_;

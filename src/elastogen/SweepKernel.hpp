@@ -33,8 +33,30 @@ GEN4D_HD inline double interior_value(const StencilCoefficients& s, const double
   return s.centre * d[q] + s.face * faces + s.edge * edges + s.corner * corners;
 }
 
-//! What the general row needs of the grid: each voxel's unit-cube Laplacian K[l][m] (times
-//! k h) and the ghosted linear offsets of a voxel's 8 corners from its lowest corner.
+//! Interior coefficients of cells with unequal edges, one per neighbour class of a box's
+//! reflection symmetry: (m/dt^2 + k c_centre) and k c times the Laplacian's coefficient of the
+//! faces along x, y, z, the edges in the xy, xz, yz planes, and the corners.
+struct AxisStencilCoefficients {
+  double centre, fx, fy, fz, exy, exz, eyz, corner;
+};
+
+//! (A d)_q of an interior node for cells with unequal edges (interior_value's layout).
+GEN4D_HD inline double interior_value_axes(const AxisStencilCoefficients& s, const double* d,
+                                           long q, long Y, long Z) {
+  const double fx = d[q - 3] + d[q + 3], fy = d[q - Y] + d[q + Y], fz = d[q - Z] + d[q + Z];
+  const double exy = d[q - Y - 3] + d[q - Y + 3] + d[q + Y - 3] + d[q + Y + 3];
+  const double exz = d[q - Z - 3] + d[q - Z + 3] + d[q + Z - 3] + d[q + Z + 3];
+  const double eyz = d[q - Y - Z] + d[q + Y - Z] + d[q - Y + Z] + d[q + Y + Z];
+  const double corners =
+      (d[q - Y - Z - 3] + d[q - Y - Z + 3] + d[q + Y - Z - 3] + d[q + Y - Z + 3]) +
+      (d[q - Y + Z - 3] + d[q - Y + Z + 3] + d[q + Y + Z - 3] + d[q + Y + Z + 3]);
+  return s.centre * d[q] + s.fx * fx + s.fy * fy + s.fz * fz + s.exy * exy + s.exz * exz +
+         s.eyz * eyz + s.corner * corners;
+}
+
+//! What the general row needs of the grid: each voxel's Laplacian K[l][m] times k (for cubes,
+//! the unit-cube Laplacian times k h) and the ghosted linear offsets of a voxel's 8 corners from
+//! its lowest corner.
 struct GeneralStencil {
   double kK[8][8];
   long corner_offset[8];
@@ -69,6 +91,8 @@ struct JacobiSweepKernel {
   double* d_new;
   double* res;  //!< may be null
   StencilCoefficients s;
+  AxisStencilCoefficients sa;  //!< used instead of s where `axes` is set
+  bool axes = false;           //!< cells with unequal edges
   GeneralStencil g;
   double interior_mass, inv_dt2, omega;
   long o0, o1, o2, n0, n1, n2;  //!< owned box start (ghosted indices) and its counts
@@ -89,7 +113,7 @@ struct JacobiSweepKernel {
     }
     double v;
     if (adj[n] == 0xFFu && mass[n] == interior_mass) {
-      v = interior_value(s, d_old, q, Y, Z);
+      v = axes ? interior_value_axes(sa, d_old, q, Y, Z) : interior_value(s, d_old, q, Y, Z);
     } else {
       v = general_value(g, d_old, n, adj[n], mass[n] * inv_dt2, dof);
     }

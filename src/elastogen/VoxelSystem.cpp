@@ -1,7 +1,13 @@
 #include "elastogen/VoxelSystem.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 #include <utility>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "core/Error.hpp"
 
 // The interior row loop is compiled for AVX-512 and AVX2 besides the baseline, picked at run
 // time. Contraction into fused multiply-adds is off there, so every clone rounds each product
@@ -21,12 +27,23 @@ GEN4D_SWEEP_CLONES void interior_run(const StencilCoefficients s, const double* 
                                      long Y, long Z, double* out) {
   for (long q = 0; q < count; ++q) out[q] = interior_value(s, d, q, Y, Z);
 }
+//! The same for cells of unequal edges.
+GEN4D_SWEEP_CLONES void interior_run_axes(const AxisStencilCoefficients s, const double* d,
+                                          long count, long Y, long Z, double* out) {
+  for (long q = 0; q < count; ++q) out[q] = interior_value_axes(s, d, q, Y, Z);
+}
 }  // namespace
 
-VoxelSystem::VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, double h,
+VoxelSystem::VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, const Vec3d& spacing,
                          std::vector<std::uint8_t> occupancy, const std::vector<double>& density,
                          const std::vector<BoxRegion>& held)
-    : grid_(grid), origin_(origin), h_(h), occ_(std::move(occupancy)), slots_(density.size()) {
+    : grid_(grid),
+      origin_(origin),
+      spacing_(spacing),
+      h_(std::max({spacing[0], spacing[1], spacing[2]})),
+      cubic_(spacing[0] == spacing[1] && spacing[1] == spacing[2]),
+      occ_(std::move(occupancy)),
+      slots_(density.size()) {
   for (std::uint8_t o : occ_)
     if (o > slots_)
       throw std::logic_error("VoxelSystem: occupancy names a material slot without a density");
@@ -38,6 +55,14 @@ VoxelSystem::VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, do
   // The interior 27-point stencil: neighbour (dx, dy, dz) collects K[l][m] from every voxel
   // holding both nodes.
   const HexStencil& hs = HexStencil::get();
+  // The cell's Laplacian: the unit cube's times h for cubes, hx hy hz sum_d Kd / h_d^2 else.
+  const double hx = spacing_[0], hy = spacing_[1], hz = spacing_[2], vol = hx * hy * hz;
+  lap_scale_ = cubic_ ? h_ : 1.0;
+  for (int l = 0; l < 8; ++l)
+    for (int m = 0; m < 8; ++m)
+      lap_[l][m] = cubic_ ? hs.K[l][m]
+                          : vol * (hs.Kd[0][l][m] / (hx * hx) + hs.Kd[1][l][m] / (hy * hy) +
+                                   hs.Kd[2][l][m] / (hz * hz));
   interior_stencil_.fill(0.0);
   for (int t = 0; t < 27; ++t)
     interior_offset_[t] =
@@ -48,7 +73,7 @@ VoxelSystem::VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, do
     for (int m = 0; m < 8; ++m) {
       // Corner m of that voxel sits at node offset (a - 1 + mx, b - 1 + my, c - 1 + mz).
       const int dx = a - 1 + (m & 1), dy = b - 1 + ((m >> 1) & 1), dz = c - 1 + ((m >> 2) & 1);
-      interior_stencil_[(dz + 1) * 9 + (dy + 1) * 3 + (dx + 1)] += hs.K[l][m];
+      interior_stencil_[(dz + 1) * 9 + (dy + 1) * 3 + (dx + 1)] += lap_[l][m];
     }
   }
   // The stencil's 27 coefficients take one value per class (centre, 6 faces, 12 edges,
@@ -61,13 +86,24 @@ VoxelSystem::VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, do
     ++members[cls];
   }
   for (int c = 0; c < 4; ++c) stencil_class_[c] /= members[c];
-  for (int m = 0; m < 8; ++m) interior_mass_ += 0.125 * (density.at(0) * h * h * h);
+  // Unequal edges keep the reflection symmetry only: one class per set of axes offset.
+  {
+    constexpr int kSlot[8] = {0, 1, 2, 4, 3, 5, 6, 7};  // offset axes bits -> coefficient
+    std::array<int, 8> count{};
+    for (int t = 0; t < 27; ++t) {
+      const int bits = (t % 3 != 1) | (t / 3 % 3 != 1) << 1 | (t / 9 != 1) << 2;
+      stencil_axes_[kSlot[bits]] += interior_stencil_[t];
+      ++count[kSlot[bits]];
+    }
+    for (int c = 0; c < 8; ++c) stencil_axes_[c] /= count[c];
+  }
+  for (int m = 0; m < 8; ++m) interior_mass_ += 0.125 * (density.at(0) * hx * hy * hz);
   adj_.assign(G.size(), 0);
   mass_.assign(G.size(), 0.0);
   free_.assign(G.size(), 0);
   fixed_.assign(G.size(), 0);
   std::vector<double> cell_mass(density.size());
-  for (std::size_t s = 0; s < density.size(); ++s) cell_mass[s] = density[s] * h * h * h;
+  for (std::size_t s = 0; s < density.size(); ++s) cell_mass[s] = density[s] * hx * hy * hz;
   const Box& O = owned();
   long local_free = 0, local_solid = 0;
   for (long k = O.start[2]; k < O.start[2] + O.count[2]; ++k)
@@ -110,6 +146,41 @@ VoxelSystem::VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, do
   global_solid_ = red.sum(static_cast<long long>(local_solid));
 }
 
+void VoxelSystem::add_point_masses(const std::vector<PointMassConfig>& masses) {
+  if (masses.empty()) return;
+  const Box& G = ghosted();
+  const std::vector<double> own = mass_;  // shares follow the body's own masses
+  std::vector<parallel::ExactSum> local(masses.size());
+  std::vector<long long> nodes(masses.size(), 0);
+  for_owned(owned(), G, [&](std::size_t n, long i, long j, long k) {
+    if (own[n] == 0.0) return;
+    const auto p = rest_position(i, j, k);
+    for (std::size_t e = 0; e < masses.size(); ++e)
+      if (masses[e].region.contains({p[0], p[1], p[2]})) {
+        local[e].add(own[n]);
+        ++nodes[e];
+      }
+  });
+  std::vector<double> total(masses.size());
+  parallel::Reducer red(grid_.comm());
+  red.sum(local.data(), total.data(), local.size());
+  for (std::size_t e = 0; e < masses.size(); ++e)
+    if (red.sum(nodes[e]) == 0)
+      throw InputError(
+          fmt::format("{}: [[point_mass]] region lo = [{}], hi = [{}] holds no node of the object",
+                      masses[e].where, fmt::join(masses[e].region.lo, ", "),
+                      fmt::join(masses[e].region.hi, ", ")));
+  for_owned(owned(), G, [&](std::size_t n, long i, long j, long k) {
+    if (own[n] == 0.0) return;
+    const auto p = rest_position(i, j, k);
+    for (std::size_t e = 0; e < masses.size(); ++e)
+      if (masses[e].region.contains({p[0], p[1], p[2]}))
+        mass_[n] += masses[e].mass * (own[n] / total[e]);
+  });
+  parallel::Halo halo(grid_, 1);
+  halo.gather(mass_.data());
+}
+
 bool VoxelSystem::solid(long ci, long cj, long ck) const {
   const Box& C = cells();
   if (!C.contains(ci, cj, ck)) return false;
@@ -118,17 +189,24 @@ bool VoxelSystem::solid(long ci, long cj, long ck) const {
 
 template <class Emit>
 void VoxelSystem::operator_rows(double k, double inv_dt2, const double* delta, Emit&& emit) const {
-  const HexStencil& s = HexStencil::get();
   const Box& G = ghosted();
   const Box& O = owned();
-  const double kh = k * h_;
+  const double kh = k * lap_scale_;
   const long gx = G.count[0], gxy = G.count[0] * G.count[1];
   const StencilCoefficients sc{interior_mass_ * inv_dt2 + kh * stencil_class_[0],
                                kh * stencil_class_[1], kh * stencil_class_[2],
                                kh * stencil_class_[3]};
+  AxisStencilCoefficients sa{interior_mass_ * inv_dt2 + kh * stencil_axes_[0],
+                             kh * stencil_axes_[1],
+                             kh * stencil_axes_[2],
+                             kh * stencil_axes_[3],
+                             kh * stencil_axes_[4],
+                             kh * stencil_axes_[5],
+                             kh * stencil_axes_[6],
+                             kh * stencil_axes_[7]};
   GeneralStencil gs;
   for (int l = 0; l < 8; ++l)
-    for (int m = 0; m < 8; ++m) gs.kK[l][m] = kh * s.K[l][m];
+    for (int m = 0; m < 8; ++m) gs.kK[l][m] = kh * lap_[l][m];
   for (int m = 0; m < 8; ++m) gs.corner_offset[m] = corner_offset_[m];
   gs.gx = gx;
   gs.gxy = gxy;
@@ -148,7 +226,10 @@ void VoxelSystem::operator_rows(double k, double inv_dt2, const double* delta, E
         // arithmetic of a value depends on its neighbourhood only, not on the run.
         long len = 1;
         while (len < 64 && i + len < i_end && interior(n + len)) ++len;
-        interior_run(sc, delta + 3 * n, 3 * len, Y, Z, row);
+        if (cubic_)
+          interior_run(sc, delta + 3 * n, 3 * len, Y, Z, row);
+        else
+          interior_run_axes(sa, delta + 3 * n, 3 * len, Y, Z, row);
         emit(n, len, static_cast<const double*>(row));
         i += len;
         continue;
@@ -195,10 +276,9 @@ JacobiSweepKernel VoxelSystem::jacobi_kernel(double k, double inv_dt2, double om
                                              const double* mass, const std::uint8_t* free,
                                              const std::uint8_t* adj, const double* d_old,
                                              double* d_new, double* res) const {
-  const HexStencil& hs = HexStencil::get();
   const Box& G = ghosted();
   const Box& O = owned();
-  const double kh = k * h_;
+  const double kh = k * lap_scale_;
   JacobiSweepKernel kern;
   kern.r = r;
   kern.diag = diag;
@@ -210,8 +290,17 @@ JacobiSweepKernel VoxelSystem::jacobi_kernel(double k, double inv_dt2, double om
   kern.res = res;
   kern.s = {interior_mass_ * inv_dt2 + kh * stencil_class_[0], kh * stencil_class_[1],
             kh * stencil_class_[2], kh * stencil_class_[3]};
+  kern.axes = !cubic_;
+  kern.sa = {interior_mass_ * inv_dt2 + kh * stencil_axes_[0],
+             kh * stencil_axes_[1],
+             kh * stencil_axes_[2],
+             kh * stencil_axes_[3],
+             kh * stencil_axes_[4],
+             kh * stencil_axes_[5],
+             kh * stencil_axes_[6],
+             kh * stencil_axes_[7]};
   for (int l = 0; l < 8; ++l)
-    for (int m = 0; m < 8; ++m) kern.g.kK[l][m] = kh * hs.K[l][m];
+    for (int m = 0; m < 8; ++m) kern.g.kK[l][m] = kh * lap_[l][m];
   for (int m = 0; m < 8; ++m) kern.g.corner_offset[m] = corner_offset_[m];
   kern.g.gx = G.count[0];
   kern.g.gxy = G.count[0] * G.count[1];
@@ -230,7 +319,6 @@ JacobiSweepKernel VoxelSystem::jacobi_kernel(double k, double inv_dt2, double om
 }
 
 void VoxelSystem::diagonal(double k, double inv_dt2, std::vector<double>& diag) const {
-  const HexStencil& s = HexStencil::get();
   const Box& G = ghosted();
   const Box& O = owned();
   diag.assign(G.size(), 1.0);
@@ -243,7 +331,7 @@ void VoxelSystem::diagonal(double k, double inv_dt2, std::vector<double>& diag) 
         for (int cell = 0; cell < 8; ++cell) {
           if (!(adj_[n] >> cell & 1)) continue;
           const int l = corner_in_cell(cell);
-          d += k * h_ * s.K[l][l];
+          d += k * lap_scale_ * lap_[l][l];
         }
         diag[n] = d;
       }

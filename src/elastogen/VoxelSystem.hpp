@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "core/Config.hpp"
@@ -42,19 +43,30 @@ class VoxelSystem {
  public:
   //! `occupancy` covers grid.adjacent_cells() (0 = empty, s + 1 = solid of material slot s),
   //! as voxelized by this rank, and `density` holds each slot's density; nodes inside a `held`
-  //! region are not unknowns (fixed or moved on a prescribed path).
-  VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, double h,
+  //! region are not unknowns (fixed or moved on a prescribed path). Cells have the edges
+  //! `spacing` (hx, hy, hz).
+  VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, const Vec3d& spacing,
               std::vector<std::uint8_t> occupancy, const std::vector<double>& density,
               const std::vector<BoxRegion>& held);
+  //! Cubic cells of edge h.
+  VoxelSystem(const parallel::NodeGrid& grid, const Vec3d& origin, double h,
+              std::vector<std::uint8_t> occupancy, const std::vector<double>& density,
+              const std::vector<BoxRegion>& held)
+      : VoxelSystem(grid, origin, Vec3d{h, h, h}, std::move(occupancy), density, held) {}
 
   const parallel::NodeGrid& grid() const { return grid_; }
   const Box& ghosted() const { return grid_.ghosted_nodes(); }
   const Box& owned() const { return grid_.owned_nodes(); }
   const Box& cells() const { return grid_.adjacent_cells(); }
+  //! The largest cell edge (the edge of cubic cells).
   double h() const { return h_; }
+  //! The cell edges along x, y, z.
+  const Vec3d& spacing() const { return spacing_; }
+  bool cubic() const { return cubic_; }
   const Vec3d& origin() const { return origin_; }
   std::array<double, 3> rest_position(long i, long j, long k) const {
-    return {origin_[0] + h_ * i, origin_[1] + h_ * j, origin_[2] + h_ * k};
+    return {origin_[0] + spacing_[0] * i, origin_[1] + spacing_[1] * j,
+            origin_[2] + spacing_[2] * k};
   }
   bool solid(long ci, long cj, long ck) const;
   const std::vector<std::uint8_t>& occupancy() const { return occ_; }
@@ -67,6 +79,12 @@ class VoxelSystem {
   const std::vector<std::uint8_t>& fixed_mask() const { return fixed_; }
   long global_solid_cells() const { return global_solid_; }
   long global_free_nodes() const { return global_free_; }
+
+  //! Adds each [[point_mass]] to the lumped masses of the nodes of the object (those touching
+  //! a solid voxel, held or not) whose rest position lies in its region, in proportion to
+  //! their own mass. InputError naming the entry when its region holds no such node.
+  //! Collective; call before the solvers take the masses.
+  void add_point_masses(const std::vector<PointMassConfig>& masses);
 
   //! out = (M/dt^2 + k L) delta on free owned nodes, 0 elsewhere. delta's ghosts must be
   //! current. This is the seed's convolution / per-voxel multiply / transposed convolution
@@ -105,7 +123,11 @@ class VoxelSystem {
 
   const parallel::NodeGrid& grid_;
   Vec3d origin_;
-  double h_;
+  Vec3d spacing_;
+  double h_;                       // the largest edge
+  bool cubic_;                     // every edge equal
+  double lap_[8][8];               // the cell's Laplacian over lap_scale_
+  double lap_scale_;               // h for cubes (lap_ is the unit-cube Laplacian), 1 otherwise
   std::vector<std::uint8_t> occ_;  // on adjacent cells
   std::vector<std::uint8_t> adj_;  // per ghosted node: bit of each solid neighbour cell
   std::vector<double> mass_;       // per ghosted node
@@ -114,8 +136,10 @@ class VoxelSystem {
   long global_solid_ = 0, global_free_ = 0;
   std::array<double, 27> interior_stencil_{};  // unit-cube coefficients, x fastest
   std::array<double, 4> stencil_class_{};      // mean coefficient: centre, face, edge, corner
-  double interior_mass_ = 0;                // lumped mass of a node with 8 solid voxels of slot 0
-  std::size_t slots_ = 1;                   // material slots
+  std::array<double, 8>
+      stencil_axes_{};        // unequal edges: centre, fx, fy, fz, exy, exz, eyz, corner
+  double interior_mass_ = 0;  // lumped mass of a node with 8 solid voxels of slot 0
+  std::size_t slots_ = 1;     // material slots
   std::array<long, 27> interior_offset_{};  // ghosted linear offsets of the 27 neighbours
   std::array<long, 8> corner_offset_{};     // ghosted linear offset of corner m from the cell base
 };
@@ -136,7 +160,9 @@ parallel::ExactSum VoxelSystem::internal_forces(const StressFn& stress, const do
   const Box& C = cells();
   const Box& G = ghosted();
   const Box& oc = grid_.owned_cells();
-  const double inv_h = 1.0 / h_, w = h_ * h_ * h_ / 8.0;
+  const double inv_h[3] = {1.0 / spacing_[0], 1.0 / spacing_[1], 1.0 / spacing_[2]};
+  const double w = spacing_[0] * spacing_[1] * spacing_[2] / 8.0;
+  const double scale[3] = {w * inv_h[0], w * inv_h[1], w * inv_h[2]};
   parallel::ExactSum energy;
   // Written for every solid voxel and read only for those (empty voxels are never read).
   cell_forces_.resize(24 * C.size());
@@ -166,7 +192,7 @@ parallel::ExactSum VoxelSystem::internal_forces(const StressFn& stress, const do
         psi = cell(stress.slots[occ_[c] - 1u]);
       else
         psi = cell(stress);
-      HexGauss::forces(P, w * inv_h, fe);
+      HexGauss::forces(P, scale, fe);
       if (oc.contains(ci, cj, ck)) e[0].add(w * psi);
       double* dst = &cell_forces_[24 * c];
       for (int m = 0; m < 8; ++m)

@@ -3,6 +3,7 @@
 
 #include "forward/BlockLDLT.hpp"
 #include "forward/ElementKernel.hpp"
+#include "forward/Filter.hpp"
 #include "forward/HenckyJ2.hpp"
 #include "forward/NodeBlockProduct.hpp"
 
@@ -10,6 +11,7 @@
 #include <Eigen/IterativeLinearSolvers>
 #include <Eigen/Sparse>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <chrono>
@@ -61,6 +63,7 @@ inline void scatter_at(const double (&g)[kShapes][3], const double P[9], double 
 
 using elastogen::HexStencil;
 using SpMat = Eigen::SparseMatrix<double>;
+const double kPi = std::acos(-1.0);
 
 //! The one instance of a constant table, built at its first use.
 template <class T>
@@ -134,12 +137,34 @@ bool condense(const ElemMat& K, Condensed& c) {
   return true;
 }
 
-//! The unit-cube element of linear elasticity at (lambda, mu) scaled to voxel size h, with
-//! the bubbles condensed (incompatible element) or left out (trilinear). False when the
+//! The element of linear elasticity at (lambda, mu) on a cell of edges h, with the bubbles
+//! condensed (incompatible element) or left out (trilinear). Cubes scale the unit-cube matrices
+//! by h; box cells integrate with each gradient component divided by its edge. False when the
 //! bubble stiffness is singular.
-bool rest_element(bool bubbles, double h, double lambda, double mu, Condensed& c) {
-  const UnitStiffness& U = built_once<UnitStiffness>();
-  const ElemMat K0e = h * (lambda * U.KL + mu * U.KM);
+bool rest_element(bool bubbles, const Vec3d& h, double lambda, double mu, Condensed& c) {
+  ElemMat K0e;
+  if (h[0] == h[1] && h[1] == h[2]) {
+    const UnitStiffness& U = built_once<UnitStiffness>();
+    K0e = h[0] * (lambda * U.KL + mu * U.KM);
+  } else {
+    const ElementStencil& S = built_once<ElementStencil>();
+    const double w = h[0] * h[1] * h[2] / 8.0;
+    for (int l = 0; l < kShapes; ++l)
+      for (int a = 0; a < 3; ++a)
+        for (int m = 0; m < kShapes; ++m)
+          for (int b = 0; b < 3; ++b) {
+            double k = 0;
+            for (int q = 0; q < 8; ++q) {
+              double gl[3], gm[3];
+              for (int d = 0; d < 3; ++d)
+                gl[d] = S.dN[q][l][d] / h[d], gm[d] = S.dN[q][m][d] / h[d];
+              k += lambda * gl[a] * gm[b] +
+                   mu * ((a == b ? gl[0] * gm[0] + gl[1] * gm[1] + gl[2] * gm[2] : 0.0) +
+                         gl[b] * gm[a]);
+            }
+            K0e(3 * l + a, 3 * m + b) = w * k;
+          }
+  }
   if (bubbles) return condense(K0e, c);
   c.Kc = K0e.block<24, 24>(0, 0);
   return true;
@@ -183,14 +208,15 @@ SpMat assemble_stiffness(const std::vector<std::array<int, 8>>& vox_node,
 }
 
 //! Mass matrix on the free dofs: theta consistent (the trilinear shape functions' integral; the
-//! bubbles carry no mass) plus (1 - theta) lumped (node masses per unit density `mass`).
+//! bubbles carry no mass) plus (1 - theta) lumped (node masses per unit density `mass`), plus
+//! the attached parts' `point_mass` (kg per node) lumped.
 SpMat assemble_mass(const std::vector<std::array<int, 8>>& vox_node, const std::vector<int>& dof,
                     int ndof, const std::vector<double>& mass, double density, double theta,
-                    double h) {
+                    const Vec3d& h, const std::vector<double>& point_mass) {
   double me[8][8];
   for (int l = 0; l < 8; ++l)
     for (int m = 0; m < 8; ++m) {
-      double w = theta * density * h * h * h;
+      double w = theta * density * h[0] * h[1] * h[2];
       for (int d = 0; d < 3; ++d) w *= ((l >> d) & 1) == ((m >> d) & 1) ? 1.0 / 3.0 : 1.0 / 6.0;
       me[l][m] = w;
     }
@@ -198,8 +224,10 @@ SpMat assemble_mass(const std::vector<std::array<int, 8>>& vox_node, const std::
   tm.reserve(vox_node.size() * 192 + mass.size() * 3);
   for (std::size_t n = 0; n < mass.size(); ++n)
     if (dof[n] >= 0)
-      for (int a = 0; a < 3; ++a)
+      for (int a = 0; a < 3; ++a) {
         tm.emplace_back(dof[n] + a, dof[n] + a, (1 - theta) * mass[n] * density);
+        if (point_mass[n] > 0) tm.emplace_back(dof[n] + a, dof[n] + a, point_mass[n]);
+      }
   for (std::size_t v = 0; v < vox_node.size(); ++v)
     for (int l = 0; l < 8; ++l) {
       const int dl = dof[static_cast<std::size_t>(vox_node[v][l])];
@@ -307,21 +335,21 @@ VoxelModel::VoxelModel(const Config& cfg) : cfg_(cfg) {
                      ": several [[material]] entries are not supported by gen4d diagnose (it "
                      "fits one material; model a region's difference as an effect)");
 
-  h_ = cfg.voxel_size;
+  h_ = cfg.cell_edges();
   auto shape = geometry::make_shape(cfg.geometry);
   const geometry::Aabb b = shape->bounds();
   for (int a = 0; a < 3; ++a) {
-    cells_[a] = std::max(1L, static_cast<long>(std::ceil((b.hi[a] - b.lo[a]) / h_ - 1e-9))) +
+    cells_[a] = std::max(1L, static_cast<long>(std::ceil((b.hi[a] - b.lo[a]) / h_[a] - 1e-9))) +
                 2L * cfg.padding;
-    origin_[a] = b.lo[a] - cfg.padding * h_;
+    origin_[a] = b.lo[a] - cfg.padding * h_[a];
   }
   const long ncell = cells_[0] * cells_[1] * cells_[2];
   if (ncell > 4000000)
     throw InputError(src + ": key 'domain.voxel_size': " + std::to_string(ncell) +
                      " cells; gen4d diagnose runs many forward solves and needs a coarser grid");
   std::vector<std::uint8_t> occ;
-  geometry::voxelize(*shape, Eigen::Vector3d(origin_[0], origin_[1], origin_[2]), h_, {0, 0, 0},
-                     cells_, occ);
+  geometry::voxelize(*shape, Eigen::Vector3d(origin_[0], origin_[1], origin_[2]),
+                     Eigen::Vector3d(h_[0], h_[1], h_[2]), {0, 0, 0}, cells_, occ);
   const long nnx = cells_[0] + 1, nny = cells_[1] + 1, nnz = cells_[2] + 1;
   std::vector<int> node_id(static_cast<std::size_t>(nnx * nny * nnz), -1);
   cell_voxel_.assign(static_cast<std::size_t>(ncell), -1);
@@ -339,7 +367,8 @@ VoxelModel::VoxelModel(const Config& cfg) : cfg_(cfg) {
           int& id = node_id[static_cast<std::size_t>((nk * nny + nj) * nnx + ni)];
           if (id < 0) {
             id = static_cast<int>(X_.size());
-            X_.push_back({origin_[0] + h_ * ni, origin_[1] + h_ * nj, origin_[2] + h_ * nk});
+            X_.push_back(
+                {origin_[0] + h_[0] * ni, origin_[1] + h_[1] * nj, origin_[2] + h_[2] * nk});
           }
           nodes[l] = id;
         }
@@ -347,13 +376,13 @@ VoxelModel::VoxelModel(const Config& cfg) : cfg_(cfg) {
         vox_ijk_.push_back({i, j, k});
         for (int a = 0; a < 3; ++a) {
           const long idx = a == 0 ? i : a == 1 ? j : k;
-          bounds_.lo[a] = std::min(bounds_.lo[a], origin_[a] + h_ * idx);
-          bounds_.hi[a] = std::max(bounds_.hi[a], origin_[a] + h_ * (idx + 1));
+          bounds_.lo[a] = std::min(bounds_.lo[a], origin_[a] + h_[a] * idx);
+          bounds_.hi[a] = std::max(bounds_.hi[a], origin_[a] + h_[a] * (idx + 1));
         }
       }
   if (vox_node_.empty())
     throw InputError(src + ": [[geometry]] produces no solid voxel at voxel_size " +
-                     fmt::format("{:g}", h_) + " m");
+                     fmt::format("{}", h_) + " m");
   const std::size_t nn = X_.size();
   mass_.assign(nn, 0.0);
   fixed_.assign(nn, 0);
@@ -361,7 +390,8 @@ VoxelModel::VoxelModel(const Config& cfg) : cfg_(cfg) {
   vox_area_.assign(vox_node_.size(), 0.0);
   clamp_area_.assign(nn, 0.0);
   for (const auto& v : vox_node_)
-    for (int l = 0; l < 8; ++l) mass_[static_cast<std::size_t>(v[l])] += h_ * h_ * h_ / 8.0;
+    for (int l = 0; l < 8; ++l)
+      mass_[static_cast<std::size_t>(v[l])] += h_[0] * h_[1] * h_[2] / 8.0;
   for (std::size_t n = 0; n < nn; ++n)
     for (const auto& f : cfg.fixed)
       if (f.region.contains(X_[n])) fixed_[n] = 1;
@@ -384,11 +414,14 @@ VoxelModel::VoxelModel(const Config& cfg) : cfg_(cfg) {
           if (((l >> a) & 1) == side) corners[c++] = vox_node_[v][l];
         bool all_fixed = true;
         for (int q = 0; q < 4; ++q) all_fixed = all_fixed && fixed_[corners[q]];
-        if (all_fixed)
+        const double face = h_[(a + 1) % 3] * h_[(a + 2) % 3];
+        if (all_fixed) {
           clamp_faces_.push_back(corners);
-        else {
-          for (int q = 0; q < 4; ++q) area_[static_cast<std::size_t>(corners[q])] += h_ * h_ / 4;
-          vox_area_[v] += h_ * h_;
+          clamp_face_area_.push_back(face);
+          clamp_face_axis_.push_back(a);
+        } else {
+          for (int q = 0; q < 4; ++q) area_[static_cast<std::size_t>(corners[q])] += face / 4;
+          vox_area_[v] += face;
         }
       }
   }
@@ -399,10 +432,50 @@ VoxelModel::VoxelModel(const Config& cfg) : cfg_(cfg) {
   for (std::size_t n = 0; n < nn; ++n)
     if (fixed_[n]) {
       ++nfixed;
-      if (!on_face[n]) clamp_area_[n] = h_ * h_;  // an interior anchor
+      if (!on_face[n]) clamp_area_[n] = h_[1] * h_[2];  // an interior anchor: a face's area
     }
   if (nfixed == static_cast<long>(nn))
     throw InputError(src + ": [[fixed]] regions hold every node; nothing can move");
+  add_point_masses();
+  // How far each node lies from the nearest held node (the support's friction acts there).
+  support_distance_.assign(nn, std::numeric_limits<double>::infinity());
+  std::vector<std::size_t> held;
+  for (std::size_t n = 0; n < nn; ++n)
+    if (fixed_[n]) held.push_back(n);
+  for (std::size_t n = 0; n < nn; ++n)
+    for (std::size_t f : held) {
+      double d2 = 0;
+      for (int a = 0; a < 3; ++a) d2 += (X_[n][a] - X_[f][a]) * (X_[n][a] - X_[f][a]);
+      support_distance_[n] = std::min(support_distance_[n], std::sqrt(d2));
+    }
+}
+
+void VoxelModel::spread_mass(const ModelTerms::AddedMass& am, std::vector<double>& pm) const {
+  std::vector<double> w(X_.size(), 0.0);
+  double sum = 0;
+  for (std::size_t n = 0; n < X_.size(); ++n) {
+    double t = mass_[n];
+    for (int a = 0; a < 3; ++a)
+      t *= std::max(0.0, 1.0 - std::abs(X_[n][a] - am.at[a]) / am.spread[a]);
+    w[n] = t, sum += t;
+  }
+  if (sum > 0)
+    for (std::size_t n = 0; n < X_.size(); ++n) pm[n] += am.mass * w[n] / sum;
+}
+
+//! The deck's [[point_mass]] parts on the nodes in their regions, by the nodes' own mass.
+void VoxelModel::add_point_masses() {
+  point_mass_.assign(X_.size(), 0.0);
+  for (const PointMassConfig& pm : cfg_.point_masses) {
+    double sum = 0;
+    for (std::size_t n = 0; n < X_.size(); ++n)
+      if (pm.region.contains(X_[n])) sum += mass_[n];
+    if (!(sum > 0))
+      throw InputError(fmt::format("{}: [[point_mass]] region [{}, {}] holds no node of the body",
+                                   pm.where, pm.region.lo, pm.region.hi));
+    for (std::size_t n = 0; n < X_.size(); ++n)
+      if (pm.region.contains(X_[n])) point_mass_[n] += pm.mass * mass_[n] / sum;
+  }
 }
 
 VoxelModel::~VoxelModel() = default;
@@ -426,8 +499,8 @@ double VoxelModel::exposed_area() const {
 
 Vec3d VoxelModel::voxel_center(std::size_t v) const {
   const auto& c = vox_ijk_[v];
-  return {origin_[0] + h_ * (c[0] + 0.5), origin_[1] + h_ * (c[1] + 0.5),
-          origin_[2] + h_ * (c[2] + 0.5)};
+  return {origin_[0] + h_[0] * (c[0] + 0.5), origin_[1] + h_[1] * (c[1] + 0.5),
+          origin_[2] + h_[2] * (c[2] + 0.5)};
 }
 
 BoxRegion VoxelModel::voxel_box(const std::vector<std::size_t>& voxels) const {
@@ -436,8 +509,8 @@ BoxRegion VoxelModel::voxel_box(const std::vector<std::size_t>& voxels) const {
   r.hi = {-1e300, -1e300, -1e300};
   for (std::size_t v : voxels)
     for (int a = 0; a < 3; ++a) {
-      r.lo[a] = std::min(r.lo[a], origin_[a] + h_ * vox_ijk_[v][a]);
-      r.hi[a] = std::max(r.hi[a], origin_[a] + h_ * (vox_ijk_[v][a] + 1));
+      r.lo[a] = std::min(r.lo[a], origin_[a] + h_[a] * vox_ijk_[v][a]);
+      r.hi[a] = std::max(r.hi[a], origin_[a] + h_[a] * (vox_ijk_[v][a] + 1));
     }
   return r;
 }
@@ -451,7 +524,7 @@ bool VoxelModel::inside(const Vec3d& X) const {
         long c[3];
         bool in = true;
         for (int a = 0; a < 3; ++a) {
-          c[a] = static_cast<long>(std::floor((X[a] - origin_[a]) / h_ + off[a]));
+          c[a] = static_cast<long>(std::floor((X[a] - origin_[a]) / h_[a] + off[a]));
           in = in && c[a] >= 0 && c[a] < cells_[a];
         }
         if (in &&
@@ -465,7 +538,7 @@ bool VoxelModel::inside(const Vec3d& X) const {
 long VoxelModel::voxel_containing(const Vec3d& X) const {
   long c[3];
   for (int a = 0; a < 3; ++a) {
-    c[a] = static_cast<long>(std::floor((X[a] - origin_[a]) / h_));
+    c[a] = static_cast<long>(std::floor((X[a] - origin_[a]) / h_[a]));
     if (c[a] < 0 || c[a] >= cells_[a]) return -1;
   }
   return cell_voxel_[static_cast<std::size_t>((c[2] * cells_[1] + c[1]) * cells_[0] + c[0])];
@@ -476,7 +549,7 @@ Attachment VoxelModel::attach(const Vec3d& X) const {
   long best = -1;
   double best_d = 1e300;
   long c0[3];
-  for (int a = 0; a < 3; ++a) c0[a] = static_cast<long>(std::floor((X[a] - origin_[a]) / h_));
+  for (int a = 0; a < 3; ++a) c0[a] = static_cast<long>(std::floor((X[a] - origin_[a]) / h_[a]));
   for (long dk = -1; dk <= 1; ++dk)
     for (long dj = -1; dj <= 1; ++dj)
       for (long di = -1; di <= 1; ++di) {
@@ -489,7 +562,7 @@ Attachment VoxelModel::attach(const Vec3d& X) const {
         if (v < 0) continue;
         double d = 0;
         for (int a = 0; a < 3; ++a) {
-          const double lo = origin_[a] + h_ * c[a], hi = lo + h_;
+          const double lo = origin_[a] + h_[a] * c[a], hi = lo + h_[a];
           const double e = X[a] < lo ? lo - X[a] : X[a] > hi ? X[a] - hi : 0.0;
           d += e * e;
         }
@@ -500,8 +573,8 @@ Attachment VoxelModel::attach(const Vec3d& X) const {
   at.X = X;
   double xi[3];
   for (int a = 0; a < 3; ++a) {
-    const double lo = origin_[a] + h_ * vox_ijk_[static_cast<std::size_t>(best)][a];
-    xi[a] = std::clamp((X[a] - lo) / h_, 0.0, 1.0);
+    const double lo = origin_[a] + h_[a] * vox_ijk_[static_cast<std::size_t>(best)][a];
+    xi[a] = std::clamp((X[a] - lo) / h_[a], 0.0, 1.0);
   }
   for (int l = 0; l < 8; ++l) {
     at.node[l] = vox_node_[static_cast<std::size_t>(best)][l];
@@ -535,17 +608,24 @@ class VoxelRun {
   Trace run(const std::vector<ChannelRequest>& req) {
     if (!setup_stiffness()) return tr;
     setup_mass_and_supports();
-    if (!setup_step_matrix()) return tr;
+    const bool preloaded = std::any_of(md_.cfg_.forces.begin(), md_.cfg_.forces.end(),
+                                       [](const ForceConfig& f) { return f.start < 0; });
+    if (!preloaded && !setup_step_matrix()) return tr;
     setup_constitutive();
     setup_sampling(req);
     setup_loads();
+    fext.assign(3 * nn, 0.0);
+    tol_du = ph.newton_tolerance * h_min;
+    if (preloaded && !preload()) return tr;
     initial_acceleration();
     record(0);
     a_prev = a;
-    fext.assign(3 * nn, 0.0);
-    tol_du = ph.newton_tolerance * h;
     for (long s = 1; s <= nsteps; ++s)
       if (!step(s)) return tr;
+    if (ph.lowpass_hz > 0)  // each sampled node's u, v, a over the steps
+      for (std::size_t k = 0; k < 9 * ns; ++k)
+        lowpass_zero_phase(&hist_u[k], static_cast<std::size_t>(nsteps) + 1, 9 * ns, dt,
+                           ph.lowpass_hz);
     sample(req);
     return tr;
   }
@@ -558,11 +638,20 @@ class VoxelRun {
   const Law& law;
   Trace tr;
   const std::size_t nn, nv;
-  double h = 0, dt = 0, lambda0 = 0, mu0 = 0;
+  Vec3d h{};             // cell edges
+  double h_min = 0;      // the smallest edge
+  double w_tangent = 0;  // the element tangent's weight: cell volume / 8 over (Dn's scale)^2
+  // Gradients the element tangent contracts with: the unit cube's (cubes), or scaled to the
+  // first edge (box cells), with w_tangent.
+  double Dn[8][kShapes][3];
+  double dt = 0, lambda0 = 0, mu0 = 0;
   int ndof = 0;
   std::vector<int> dof;
   std::vector<double> vfac;
   bool clamp_springs = false, bubbles = false;
+  // The clamp's springs per unit area along a clamp face's normal and in its plane.
+  double k_normal = 0, k_tangent = 0;
+  std::vector<double> pmass;  // per node: the deck's point masses and the effects' added masses
   Condensed c0;
   // Per voxel: L, its transpose (the products read both along their outputs) and Kinv.
   std::vector<Eigen::Matrix<double, 9, 24>> condL;
@@ -583,6 +672,7 @@ class VoxelRun {
   std::vector<double> fp_inv, fp_inv_new, pstate, pstate_new, qv, qv_new;
   double rv = 0;
   std::vector<double> u, v, a, u1, v1, a1, a_prev, fext, fint;
+  std::vector<double> f_static;  // the loads the pre-loaded initial state balances (or empty)
   // Bubble amplitudes per voxel (9: axis i, component d at 3 i + d), their rates (trapezoidal,
   // for the viscous stress), trial values, and their residual (element-local equations).
   std::vector<double> al, ald, al1, ald1, ral;
@@ -617,9 +707,10 @@ class VoxelRun {
   //! stiffness factor). Per voxel: L = Kaa^-1 Kau and Kaa^-1 of the matrix last factored, for
   //! the bubbles' update after each global solve.
   bool setup_stiffness() {
-    clamp_springs = std::isfinite(tm.clamp_stiffness);
+    clamp_springs = std::isfinite(tm.clamp_stiffness) || std::isfinite(tm.clamp_normal_stiffness);
     dof = free_dofs(md_.fixed_, clamp_springs, ndof);
     h = md_.h_, dt = ph.dt;
+    h_min = std::min({h[0], h[1], h[2]});
     lambda0 = ph.youngs_modulus * ph.poisson_ratio /
               ((1 + ph.poisson_ratio) * (1 - 2 * ph.poisson_ratio));
     mu0 = ph.youngs_modulus / (2 * (1 + ph.poisson_ratio));
@@ -657,18 +748,25 @@ class VoxelRun {
     M.resize(ndof), Cd.resize(ndof), Ks.resize(ndof);
     const double theta = std::clamp(ph.consistent_mass_fraction, 0.0, 1.0);
     consistent = theta > 0;
+    pmass = md_.point_mass_;
+    for (const ModelTerms::AddedMass& am : tm.added_masses) md_.spread_mass(am, pmass);
     if (consistent) {
-      Mc = assemble_mass(md_.vox_node_, dof, ndof, md_.mass_, ph.density, theta, h);
+      Mc = assemble_mass(md_.vox_node_, dof, ndof, md_.mass_, ph.density, theta, h, pmass);
       Mc_nodes = NodeBlockProduct(Mc);
     }
+    // Rigid in the clamp face's plane when only the normal springs give: 1e4 E / h, the clamp
+    // compliance effect's own rigid value.
+    k_tangent =
+        std::isfinite(tm.clamp_stiffness) ? tm.clamp_stiffness : 1e4 * ph.youngs_modulus / md_.h();
+    k_normal = std::isfinite(tm.clamp_normal_stiffness) ? tm.clamp_normal_stiffness : k_tangent;
     for (std::size_t n = 0; n < nn; ++n) {
       if (dof[n] < 0) continue;
-      const double m = md_.mass_[n] * ph.density;
+      const double m = mass_of(n);
       double c = 0;
-      for (const auto& nf : tm.node_forces) c += nf->damping({m, md_.area_[n]});
+      for (const auto& nf : tm.node_forces) c += nf->damping(force_node(n, m));
       double k = 0;
       if (md_.fixed_[n] && clamp_springs) {
-        k = tm.clamp_stiffness * md_.clamp_area_[n];
+        k = k_tangent * md_.clamp_area_[n];
         c += tm.clamp_damping * md_.clamp_area_[n];
       }
       for (int d = 0; d < 3; ++d) M[dof[n] + d] = m, Cd[dof[n] + d] = c, Ks[dof[n] + d] = k;
@@ -683,7 +781,7 @@ class VoxelRun {
       planes.push_back({c.point, n, c.friction});
     }
     for (const auto& c : tm.planes) planes.push_back({c.point, c.normal, c.friction});
-    k_pen = 2.0 * ph.youngs_modulus * h;  // N/m per node: sub-micron sag, mild tangent
+    k_pen = 2.0 * ph.youngs_modulus * h_min;  // N/m per node: sub-micron sag, mild tangent
   }
 
   //! The clamp faces' springs and dashpots as an elastic foundation, integrated with the
@@ -691,9 +789,19 @@ class VoxelRun {
   //! with itself, along an edge, across): exact for the linear field of a face that tilts, so
   //! the clamp's rotational stiffness is k times the face's second moment of area on any
   //! mesh (lumped at the corners it is 1 + 2 (h/H)^2 times that, for a face H wide).
-  double foundation(int q, int r) const {
+  //! Node n's mass (kg): its share of the body, the deck's point masses, the added masses.
+  double mass_of(std::size_t n) const { return md_.mass_[n] * ph.density + pmass[n]; }
+  ForceNode force_node(std::size_t n, double m) const {
+    return {m, md_.area_[n], md_.X_[n], md_.support_distance_[n]};
+  }
+  //! The clamp springs' stiffness per unit area on clamp face fi along axis d.
+  double clamp_k(std::size_t fi, int d) const {
+    return d == md_.clamp_face_axis_[fi] ? k_normal : k_tangent;
+  }
+
+  double foundation(std::size_t face, int q, int r) const {
     const int same = ((q ^ r) & 1 ? 0 : 1) + ((q ^ r) & 2 ? 0 : 1);  // axes in common
-    return h * h / 36.0 * (same == 2 ? 4.0 : same == 1 ? 2.0 : 1.0);
+    return md_.clamp_face_area_[face] / 36.0 * (same == 2 ? 4.0 : same == 1 ? 2.0 : 1.0);
   }
 
   //! Step matrix A = diag(ca M + cv C + springs) + (1 + cv beta) Kt (+ contact penalties); Kt
@@ -706,13 +814,15 @@ class VoxelRun {
     for (int i = 0; i < ndof; ++i)
       d.emplace_back(i, i, (consistent ? 0.0 : cm * M[i]) + cv * Cd[i] + Ks[i]);
     if (clamp_faces)
-      for (const auto& f : md_.clamp_faces_)
+      for (std::size_t fi = 0; fi < md_.clamp_faces_.size(); ++fi) {
+        const auto& f = md_.clamp_faces_[fi];
         for (int q = 0; q < 4; ++q)
           for (int r = 0; r < 4; ++r)
             for (int k = 0; k < 3; ++k)
               d.emplace_back(dof[static_cast<std::size_t>(f[q])] + k,
                              dof[static_cast<std::size_t>(f[r])] + k,
-                             (tm.clamp_stiffness + cv * tm.clamp_damping) * foundation(q, r));
+                             (clamp_k(fi, k) + cv * tm.clamp_damping) * foundation(fi, q, r));
+      }
     diagA.setFromTriplets(d.begin(), d.end());
     if (consistent) diagA += cm * Mc;
     Kt = K0;
@@ -765,7 +875,15 @@ class VoxelRun {
     R.resize(ndof), du.resize(ndof), wa.resize(ndof), Mwa.resize(ndof);
     for (int q = 0; q < 8; ++q)
       for (int l = 0; l < kShapes; ++l)
-        for (int c = 0; c < 3; ++c) G[q][l][c] = (l < 8 || bubbles) ? S.dN[q][l][c] / h : 0.0;
+        for (int c = 0; c < 3; ++c) G[q][l][c] = (l < 8 || bubbles) ? S.dN[q][l][c] / h[c] : 0.0;
+    // The tangent's weight: h^3 / 8 * (1/h)^2 on cubes; on box cells the gradients scaled to
+    // the first edge (dN h0 / h_c) and the weight hx hy hz / (8 h0^2).
+    const bool cube = h[0] == h[1] && h[1] == h[2];
+    w_tangent = cube ? h[0] / 8.0 : h[0] * h[1] * h[2] / (8.0 * h[0] * h[0]);
+    for (int q = 0; q < 8; ++q)
+      for (int l = 0; l < kShapes; ++l)
+        for (int c = 0; c < 3; ++c)
+          Dn[q][l][c] = cube ? S.dN[q][l][c] : S.dN[q][l][c] * h[0] / h[c];
     fint.resize(3 * nn);
     kelvin_voigt = tm.rayleigh_beta != 0;
     if constexpr (kLaneLaw) setup_vector_kernels();
@@ -789,7 +907,7 @@ class VoxelRun {
     pass.X = md_.X_.data();
     pass.vfac = vfac.data();
     pass.G = Gl;
-    pass.weight = h * h * h / 8.0;
+    pass.weight = h[0] * h[1] * h[2] / 8.0;
     pass.mu = law.mu;
     pass.lambda = law.lambda;
     pass.kv_beta = tm.rayleigh_beta;
@@ -799,7 +917,7 @@ class VoxelRun {
     pass.prony_rate_g = rv * tm.prony_g;
     vtangent.law = pass.law;
     vtangent.G = Gl;
-    vtangent.dN = S.dN;
+    vtangent.dN = Dn;
     vtangent.mu = law.mu;
     vtangent.lambda = law.lambda;
     vtangent.shapes = bubbles ? kShapes : 8;
@@ -922,7 +1040,7 @@ class VoxelRun {
                 P[3 * i] * F[3 * j] + P[3 * i + 1] * F[3 * j + 1] + P[3 * i + 2] * F[3 * j + 2];
       step_max_mises = std::max(step_max_mises, mises(tau));
     }
-    scatter_at(G[q], P, h * h * h / 8.0, fe);
+    scatter_at(G[q], P, h[0] * h[1] * h[2] / 8.0, fe);
     return true;
   }
 
@@ -1003,7 +1121,7 @@ class VoxelRun {
             for (int e = 0; e < 3; ++e) {
               double t = 0;
               for (int c = 0; c < 3; ++c)
-                t += S.dN[q][l][c] * 0.5 * (D[3 * i + c][3 * b + e] + D[3 * b + e][3 * i + c]);
+                t += Dn[q][l][c] * 0.5 * (D[3 * i + c][3 * b + e] + D[3 * b + e][3 * i + c]);
               T[l][i][b][e] = w * t;
             }
       // Ke is symmetric (D symmetrised): its upper triangle only, mirrored below.
@@ -1011,9 +1129,8 @@ class VoxelRun {
         for (int i = 0; i < 3; ++i)
           for (int m = l; m < nshape; ++m)
             for (int b = m == l ? i : 0; b < 3; ++b)
-              Ke(3 * l + i, 3 * m + b) += T[l][i][b][0] * S.dN[q][m][0] +
-                                          T[l][i][b][1] * S.dN[q][m][1] +
-                                          T[l][i][b][2] * S.dN[q][m][2];
+              Ke(3 * l + i, 3 * m + b) += T[l][i][b][0] * Dn[q][m][0] +
+                                          T[l][i][b][1] * Dn[q][m][1] + T[l][i][b][2] * Dn[q][m][2];
     }
     for (int j = 0; j < 3 * nshape; ++j)
       for (int i = j + 1; i < 3 * nshape; ++i) Ke(i, j) = Ke(j, i);
@@ -1044,7 +1161,7 @@ class VoxelRun {
       double xe[kShapes][3] = {};
       element_coords(vx, u1, al1, xe);
       ElemMat Ke;
-      const double w = h / 8.0 * vfac[vx] * vscale;  // h^3 / 8 * (1/h)^2
+      const double w = w_tangent * vfac[vx] * vscale;
       if (vector_tangent)
         elastic_element_tangent(vtangent, xe, w, Ke.data());
       else
@@ -1079,6 +1196,7 @@ class VoxelRun {
     double t_last = 0;
     for (const auto& r : req)
       if (!r.t.empty()) t_last = std::max(t_last, r.t.back());
+    t_last += std::max(0.0, ph.time_offset);
     nsteps = static_cast<long>(std::ceil(t_last / dt - 1e-9)) + 1;
     sample_slot.assign(nn, -1);
     for (const auto& r : req)
@@ -1115,7 +1233,14 @@ class VoxelRun {
   //! one-sided limits): the trapezoidal rule then delivers the pulse's exact impulse (counting
   //! it fully, or not at all, at its end adds or drops half a step of impulse). A force that
   //! starts at t = 0 acts fully from the initial state.
+  //! A pre-load (start < 0) released at t = 0 is off from the first instant, or goes over
+  //! Physics::release_duration.
   double on_fraction(const ForceConfig& fc, double t) const {
+    if (fc.start < 0 && ph.release_duration > 0) {
+      const double s = (t - fc.end) / ph.release_duration;
+      return s <= 0 ? 1.0 : s >= 1 ? 0.0 : 0.5 * (1 + std::cos(kPi * s));
+    }
+    if (fc.start < 0 && fc.end <= t_tol && t <= t_tol) return 0.0;
     const bool at_start = std::abs(t - fc.start) <= t_tol && fc.start > 0;
     const bool at_end = std::abs(t - fc.end) <= t_tol;
     if (at_start && at_end) return 0.0;
@@ -1123,28 +1248,58 @@ class VoxelRun {
     return (t >= fc.start && t < fc.end) ? 1.0 : 0.0;
   }
 
-  void external(double t, std::size_t n, double f[3]) const {
-    const double m = md_.mass_[n] * ph.density;
+  //! Gravity and the forces on node n at time t; with statics, the loads before the run
+  //! starts: gravity and the pre-loads.
+  void external(double t, std::size_t n, double f[3], bool statics = false) const {
+    const double m = mass_of(n);
     for (int d = 0; d < 3; ++d) f[d] = m * ph.gravity[d];
     if (md_.fixed_[n]) return;
     for (std::size_t r = 0; r < md_.cfg_.forces.size(); ++r) {
       const ForceConfig& fc = md_.cfg_.forces[r];
       if (region_mass[r] == 0.0 || !fc.region.contains(md_.X_[n])) continue;
-      const double on = on_fraction(fc, t);
+      const double on = statics ? (fc.start < 0 ? 1.0 : 0.0) : on_fraction(fc, t);
       if (on == 0.0) continue;
       for (int d = 0; d < 3; ++d)
         f[d] += on * ph.load_scale * fc.force[d] * md_.mass_[n] / region_mass[r];
     }
   }
 
-  //! Initial acceleration from rest: M a0 = f_ext(0) - f_int(X) (= f_ext(0)).
+  //! The pre-loads ([[force]] with start < 0): the body starts at rest in static equilibrium
+  //! under them and gravity. Newton on the step's equations without inertia (ca = cv = 0: the
+  //! step matrix is the static tangent, clamp springs included), from the rest state; then the
+  //! step matrix of the motion. f_static keeps the loads the state balances.
+  bool preload() {
+    const double ca0 = ca, cv0 = cv;
+    ca = cv = 0;
+    const bool built = setup_step_matrix();
+    for (std::size_t n = 0; n < nn; ++n)
+      if (dof[n] >= 0) external(0.0, n, &fext[3 * n], true);
+    u1 = u, al1 = al;
+    const bool ok = built && newton(1);
+    ca = ca0, cv = cv0;
+    if (!built) return false;
+    if (!ok)
+      return fail(
+          "the static equilibrium under the pre-loads ([[force]] start < 0) did not "
+          "converge");
+    u.swap(u1);
+    al.swap(al1);
+    if (plastic) fp_inv.swap(fp_inv_new), pstate.swap(pstate_new);
+    f_static = fext;
+    return setup_step_matrix();
+  }
+
+  //! Initial acceleration from rest: M a0 = f_ext(0) - f_int(u0), where f_int(u0) balances the
+  //! pre-loads (f_static) or is zero (the body at rest in its reference shape).
   void initial_acceleration() {
     Eigen::VectorXd f0(ndof), a0(ndof);
     for (std::size_t n = 0; n < nn; ++n) {
       if (dof[n] < 0) continue;
       double f[3];
       external(0.0, n, f);
-      for (int d = 0; d < 3; ++d) f0[dof[n] + d] = f[d];
+      for (int d = 0; d < 3; ++d)
+        f0[dof[n] + d] =
+            f_static.empty() ? f[d] : f[d] - f_static[3 * n + static_cast<std::size_t>(d)];
     }
     if (consistent) {
       Eigen::ConjugateGradient<SpMat, Eigen::Lower | Eigen::Upper> cg(Mc);
@@ -1243,13 +1398,13 @@ class VoxelRun {
       if (dof[n] < 0) continue;
       const double* f = &fext[3 * n];
       const int i0 = dof[n];
-      const double m = md_.mass_[n] * ph.density;
+      const double m = mass_of(n);
       const double* vn = &v1[3 * n];
       const double* v0 = &v[3 * n];
       for (int d = 0; d < 3; ++d)
         R[i0 + d] =
             Mwa[i0 + d] + Cd[i0 + d] * vn[d] + fint[3 * n + d] - f[d] + Ks[i0 + d] * u1[3 * n + d];
-      for (const auto& nf : tm.node_forces) nf->add_residual({m, md_.area_[n]}, vn, v0, dt, &R[i0]);
+      for (const auto& nf : tm.node_forces) nf->add_residual(force_node(n, m), vn, v0, dt, &R[i0]);
       for (std::size_t p = 0; p < planes.size(); ++p)
         if (active[n * planes.size() + p]) contact_residual(n, planes[p], m, v0, i0);
     }
@@ -1273,14 +1428,15 @@ class VoxelRun {
 
   //! The clamp faces' foundation: k u + c v, integrated over each face.
   void clamp_residual() {
-    for (const auto& f : md_.clamp_faces_)
+    for (std::size_t fi = 0; fi < md_.clamp_faces_.size(); ++fi)
       for (int q = 0; q < 4; ++q) {
+        const auto& f = md_.clamp_faces_[fi];
         const int i0 = dof[static_cast<std::size_t>(f[q])];
         for (int r = 0; r < 4; ++r) {
           const std::size_t m3 = 3 * static_cast<std::size_t>(f[r]);
-          const double w = foundation(q, r);
+          const double w = foundation(fi, q, r);
           for (int d = 0; d < 3; ++d)
-            R[i0 + d] += w * (tm.clamp_stiffness * u1[m3 + static_cast<std::size_t>(d)] +
+            R[i0 + d] += w * (clamp_k(fi, d) * u1[m3 + static_cast<std::size_t>(d)] +
                               tm.clamp_damping * v1[m3 + static_cast<std::size_t>(d)]);
         }
       }
@@ -1417,7 +1573,12 @@ class VoxelRun {
     }
   }
 
-  void sample_at(const ChannelRequest& r, double t, double* out) const {
+  void sample_at(const ChannelRequest& r, double t_recording, double* out) const {
+    const double t = t_recording + ph.time_offset;
+    if (t < 0 && r.acceleration) {  // at rest before the model's start
+      out[0] = out[1] = out[2] = 0.0;
+      return;
+    }
     const double tt = std::max(0.0, t);
     long s0 = std::min(static_cast<long>(std::floor(tt / dt)), std::max(0L, nsteps - 1));
     if (nsteps == 0) s0 = 0;
@@ -1463,23 +1624,32 @@ std::vector<double> VoxelModel::stiffness_factors(const ModelTerms& tm) const {
   return f;
 }
 
-double VoxelModel::rest_frequency(const Physics& ph, const Vec3d& direction) const {
-  const double nan = std::numeric_limits<double>::quiet_NaN();
+bool VoxelModel::rest_matrices(const Physics& ph, SpMat& K, SpMat& M, std::vector<int>& dof,
+                               int& ndof) const {
   const ModelTerms tm = model_terms(ph);
-  if (std::isfinite(tm.clamp_stiffness) || !tm.planes.empty() || !cfg_.colliders.empty())
-    return nan;
-  int ndof = 0;
-  const std::vector<int> dof = free_dofs(fixed_, false, ndof);
-  if (ndof == 0) return nan;
+  if (std::isfinite(tm.clamp_stiffness) || std::isfinite(tm.clamp_normal_stiffness) ||
+      !tm.planes.empty() || !cfg_.colliders.empty() || !tm.added_masses.empty())
+    return false;
+  dof = free_dofs(fixed_, false, ndof);
+  if (ndof == 0) return false;
   const double nu = ph.poisson_ratio, E = ph.youngs_modulus;
   Condensed c0;
   if (!rest_element(ph.element == Element::incompatible, h_, E * nu / ((1 + nu) * (1 - 2 * nu)),
                     E / (2 * (1 + nu)), c0))
-    return nan;
+    return false;
   std::vector<Eigen::Triplet<double>> trip;
-  const SpMat K = assemble_stiffness(vox_node_, dof, ndof, stiffness_factors(tm), c0.Kc, trip);
-  const SpMat M = assemble_mass(vox_node_, dof, ndof, mass_, ph.density,
-                                std::clamp(ph.consistent_mass_fraction, 0.0, 1.0), h_);
+  K = assemble_stiffness(vox_node_, dof, ndof, stiffness_factors(tm), c0.Kc, trip);
+  M = assemble_mass(vox_node_, dof, ndof, mass_, ph.density,
+                    std::clamp(ph.consistent_mass_fraction, 0.0, 1.0), h_, point_mass_);
+  return true;
+}
+
+double VoxelModel::rest_frequency(const Physics& ph, const Vec3d& direction) const {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  SpMat K, M;
+  std::vector<int> dof;
+  int ndof = 0;
+  if (!rest_matrices(ph, K, M, dof, ndof)) return nan;
   BlockLDLT solver;
   solver.analyze(K);
   if (!solver.factorize(K)) return nan;
@@ -1502,6 +1672,49 @@ double VoxelModel::rest_frequency(const Physics& ph, const Vec3d& direction) con
     if (done) break;
   }
   return lambda > 0 && std::isfinite(lambda) ? std::sqrt(lambda) : nan;
+}
+
+std::vector<double> VoxelModel::rest_modes(const Physics& ph, int count) const {
+  SpMat K, M;
+  std::vector<int> dof;
+  int ndof = 0;
+  if (count <= 0 || !rest_matrices(ph, K, M, dof, ndof)) return {};
+  BlockLDLT solver;
+  solver.analyze(K);
+  if (!solver.factorize(K)) return {};
+  // Subspace iteration: X <- K^-1 M X, then Rayleigh-Ritz on span(X), with count + 4 vectors
+  // from smooth start fields (uniform and linear in the rest position along each axis).
+  const int m = std::min(ndof, count + 4);
+  Eigen::MatrixXd X(ndof, m);
+  for (std::size_t n = 0; n < dof.size(); ++n)
+    if (dof[n] >= 0)
+      for (int j = 0; j < m; ++j)
+        for (int a = 0; a < 3; ++a)
+          X(dof[n] + a, j) =
+              (j % 3 == a ? 1.0 : 0.1) *
+              std::pow(X_[n][(j / 3) % 3] - bounds_.lo[(j / 3) % 3] + 1e-3, 1 + j / 3);
+  Eigen::VectorXd lambda = Eigen::VectorXd::Zero(m), y;
+  for (int it = 0; it < 100; ++it) {
+    Eigen::MatrixXd Y(ndof, m);
+    for (int j = 0; j < m; ++j) {
+      solver.solve(M * X.col(j), y);
+      Y.col(j) = y;
+    }
+    const Eigen::MatrixXd Kr = Y.transpose() * (K * Y), Mr = Y.transpose() * (M * Y);
+    const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> ritz(Kr, Mr);
+    if (ritz.info() != Eigen::Success) return {};
+    X = Y * ritz.eigenvectors();
+    const Eigen::VectorXd next = ritz.eigenvalues();
+    const bool done =
+        ((next - lambda).head(count).array().abs() <= 1e-10 * next.head(count).array().abs()).all();
+    lambda = next;
+    if (done) break;
+  }
+  std::vector<double> omega;
+  for (int j = 0; j < count; ++j)
+    omega.push_back(lambda[j] > 0 ? std::sqrt(lambda[j])
+                                  : std::numeric_limits<double>::quiet_NaN());
+  return omega;
 }
 
 Trace VoxelModel::run(const Physics& ph, const std::vector<ChannelRequest>& req) const {

@@ -9,11 +9,14 @@
 //! run is serial; diagnose spreads runs over ranks.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <limits>
 #include <memory>
 #include <string>
 #include <vector>
+
+#include <Eigen/SparseCore>
 
 #include "core/Config.hpp"
 #include "forward/Terms.hpp"
@@ -46,8 +49,21 @@ struct Physics {
   //! The effects applied on top of the deck's physics (Effect::apply), one entry per effect,
   //! in library order; an effect at its null values has none.
   std::vector<AppliedEffect> effects;
-  //! Multiplies the deck's [[force]] loads (to design a separating experiment).
+  //! Multiplies the deck's [[force]] loads (to design a separating experiment, or fit a
+  //! pre-load of unknown size).
   double load_scale = 1;
+  //! The model's time at the recording's t = 0 (s): a sample at t is the model's state at
+  //! t + time_offset; before the model's t = 0 the body is at rest in its initial state (a
+  //! release time known to a few milliseconds). Voxel decks.
+  double time_offset = 0;
+  //! Pre-loads are removed over this long after their end (s), as 1/2 (1 + cos(pi s / this)):
+  //! a hand lets go over milliseconds, and an instant release would ring every mode of the
+  //! mesh, which the trapezoidal rule never damps. 0: at once.
+  double release_duration = 0;
+  //! The recording's zero-phase low-pass cutoff (Hz; 0: none): the run's motion at its steps
+  //! is filtered alike (Filter.hpp) before it is sampled, so nothing above the cutoff aliases
+  //! into the samples. Voxel decks.
+  double lowpass_hz = 0;
   //! A step's Newton iteration stops at a correction below this many voxel sizes (every node
   //! and bubble amplitude): 1e-5 keeps a fit's finite differences (1e-3 to 1e-2 relative
   //! parameter steps) clean of the iteration's own error.
@@ -102,7 +118,7 @@ class ForwardModel {
   virtual std::string kind() const = 0;
   //! The deck's physics at its nominal values (no effect).
   virtual Physics nominal() const = 0;
-  //! Cell size (m) and the solid cells of the body at rest.
+  //! The largest cell edge (m) and the solid cells of the body at rest.
   virtual double h() const = 0;
   virtual std::size_t voxels() const = 0;
   virtual Vec3d voxel_center(std::size_t v) const = 0;
@@ -148,12 +164,16 @@ class VoxelModel final : public ForwardModel {
   const Config& config() const override { return cfg_; }
   std::string kind() const override { return "voxel"; }
   Physics nominal() const override;
-  double h() const override { return h_; }
+  double h() const override { return std::max({h_[0], h_[1], h_[2]}); }
+  //! The cell edges along x, y, z (m).
+  const Vec3d& spacing() const { return h_; }
   std::size_t nodes() const { return X_.size(); }
   std::size_t voxels() const override { return vox_node_.size(); }
   const std::vector<Vec3d>& rest_positions() const { return X_; }
   Vec3d voxel_center(std::size_t v) const override;
-  double volume() const override { return h_ * h_ * h_ * static_cast<double>(vox_node_.size()); }
+  double volume() const override {
+    return h_[0] * h_[1] * h_[2] * static_cast<double>(vox_node_.size());
+  }
   double exposed_area() const override;
   //! Voxel v's exposed area (m^2): its faces on empty space, clamp faces excluded.
   double voxel_exposed_area(std::size_t v) const { return vox_area_[v]; }
@@ -173,6 +193,10 @@ class VoxelModel final : public ForwardModel {
   //! the model this way (a spring clamp, contact planes) or the stiffness is singular (a body
   //! held nowhere).
   double rest_frequency(const Physics& phys, const Vec3d& direction) const override;
+  //! The `count` lowest angular frequencies (rad/s) of the linear model at rest (stiffness at
+  //! the physics' E, nu and stiffness effects; mass with the attached parts), by subspace
+  //! iteration; empty where rest_frequency would be NaN.
+  std::vector<double> rest_modes(const Physics& phys, int count) const;
   //! Whether StVK's elastic passes run in the vector kernel (the default) or in the scalar
   //! element loop; both give the same bits (tests and bench_diagnose compare them).
   void set_vector_kernels(bool on) { vector_kernels_ = on; }
@@ -180,28 +204,44 @@ class VoxelModel final : public ForwardModel {
  private:
   //! Each voxel's stiffness factor (at its centre).
   std::vector<double> stiffness_factors(const ModelTerms& terms) const;
+  void add_point_masses();
+  //! Adds an effect's rigid mass to the per-node masses pm (kg), as ModelTerms::AddedMass says;
+  //! nothing where its tent holds no node.
+  void spread_mass(const ModelTerms::AddedMass& am, std::vector<double>& pm) const;
+  //! The linear stiffness and mass at rest on the free dofs; false where the model has no rest
+  //! state of that kind (a spring clamp, contact planes).
+  bool rest_matrices(const Physics& ph, Eigen::SparseMatrix<double>& K,
+                     Eigen::SparseMatrix<double>& M, std::vector<int>& dof, int& ndof) const;
+  //! Node n's mass (kg): its share of the body at `density` plus its attached parts'.
+  double node_mass(std::size_t n, double density) const {
+    return mass_[n] * density + point_mass_[n];
+  }
   //! One run with the hyperelastic law as a compile-time type (Model.cpp).
   template <class Law>
   friend class VoxelRun;
 
   Config cfg_;
   bool vector_kernels_ = true;
-  double h_ = 0;
+  Vec3d h_{};  //!< cell edges along x, y, z
   Vec3d origin_{};
   std::array<long, 3> cells_{};
   std::vector<long> cell_voxel_;  //!< cell linear index -> voxel id or -1
   std::vector<std::array<int, 8>> vox_node_;
   std::vector<std::array<long, 3>> vox_ijk_;
   std::vector<Vec3d> X_;
-  std::vector<double> mass_;      //!< per node, kg per unit density
-  std::vector<char> fixed_;       //!< per node
-  std::vector<double> area_;      //!< exposed tributary area per node (not the clamp face)
-  std::vector<double> vox_area_;  //!< exposed area per voxel (not the clamp face)
+  std::vector<double> mass_;        //!< per node, kg per unit density
+  std::vector<double> point_mass_;  //!< per node, kg of the deck's [[point_mass]] parts
+  std::vector<char> fixed_;         //!< per node
+  std::vector<double> area_;        //!< exposed tributary area per node (not the clamp face)
+  std::vector<double> vox_area_;    //!< exposed area per voxel (not the clamp face)
   //! Lumped spring area of a fixed node on no clamp face (an interior anchor), else 0.
   std::vector<double> clamp_area_;
   //! Clamp faces (exposed voxel faces whose corners are all fixed): their corners, indexed
   //! by the bits of the two face axes, so corners q and r share an edge when q ^ r has one bit.
   std::vector<std::array<int, 4>> clamp_faces_;
+  std::vector<double> clamp_face_area_;   //!< area of each clamp face (m^2)
+  std::vector<int> clamp_face_axis_;      //!< the axis normal to each clamp face
+  std::vector<double> support_distance_;  //!< per node: distance to the nearest held node (m)
   BoxRegion bounds_;
 };
 

@@ -14,6 +14,7 @@
 #include "geometry/Shape.hpp"
 #include "materials/Svd3.hpp"
 #include "mpm/MpmSimulation.hpp"
+#include "mpm/PointMass.hpp"
 #include "mpm/Seeding.hpp"
 #include "mpm/Solver.hpp"
 
@@ -331,6 +332,13 @@ MpmModel::MpmModel(const Config& cfg) : cfg_(cfg) {
   shape_ = geometry::make_shape(cfg.geometry);
   const double limit = cfg.mpm.wave_cfl * cfg.voxel_size / std::max(material->wave_speed(), 1e-300);
   dt_ = cfg.mpm.substep == "fixed" ? cfg.dt : std::min(cfg.dt, 0.5 * limit);
+  // A [[point_mass]] region without particles is the deck's error, not a failed run.
+  if (!cfg.point_masses.empty()) {
+    mpm::Particles p =
+        mpm::seed_particles(MPI_COMM_SELF, mpm::layout_grid(cfg_, shape_->bounds()), *shape_,
+                            cfg.mpm.particles_per_axis, *material, cfg.mpm.velocity);
+    mpm::add_point_masses(MPI_COMM_SELF, cfg.point_masses, p);
+  }
 }
 
 MpmModel::~MpmModel() = default;
@@ -367,15 +375,21 @@ std::vector<double> MpmModel::load_events() const {
 bool MpmModel::models(const std::string& effect, const std::string& variant) const {
   if (effect == "plasticity") return elastic_;
   if (effect == "material_law") return elastic_ && (variant.empty() || mpm_model_of_law(variant));
-  return effect != "clamp_compliance";
+  // The supports' effects need [[fixed]] nodes; added masses are terms of the voxel model.
+  for (const char* voxel_only :
+       {"clamp_compliance", "support_rotation", "support_friction", "added_mass", "sensor_mass"})
+    if (effect == voxel_only) return false;
+  return true;
 }
 
 std::string MpmModel::unsupported_reason(const std::string& effect) const {
   if (effect == "plasticity" || effect == "material_law")
     return fmt::format("the deck's MPM material '{}' is not one of the elastic laws",
                        cfg_.material.model);
-  if (effect == "clamp_compliance")
+  if (effect == "clamp_compliance" || effect == "support_rotation" || effect == "support_friction")
     return "an MPM deck has no [[fixed]] supports (its [[boundary]] conditions are kinematic)";
+  if (effect == "added_mass" || effect == "sensor_mass")
+    return "added rigid masses are terms of the voxel model";
   return "not a term of the MPM model";
 }
 
@@ -411,8 +425,10 @@ Trace MpmModel::run(const Physics& ph, const std::vector<ChannelRequest>& req) c
 
     const mpm::GridSpec spec = mpm::layout_grid(cfg_, shape_->bounds());
     mpm::Solver solver(MPI_COMM_SELF, spec, material, opt, bcs);
-    solver.distribute(mpm::seed_particles(MPI_COMM_SELF, spec, *shape_, cfg_.mpm.particles_per_axis,
-                                          *material, cfg_.mpm.velocity));
+    mpm::Particles seeded = mpm::seed_particles(
+        MPI_COMM_SELF, spec, *shape_, cfg_.mpm.particles_per_axis, *material, cfg_.mpm.velocity);
+    mpm::add_point_masses(MPI_COMM_SELF, cfg_.point_masses, seeded);
+    solver.distribute(std::move(seeded));
     mpm::Particles& P = solver.particles();
     const std::size_t np = P.size();
     if (np == 0) throw InputError(cfg_.source + ": the geometry holds no MPM particle");

@@ -3,6 +3,9 @@
 //! grid and [[boundary]] conditions. Markers are attached by their reference point: a marker
 //! moves with the B-spline-weighted mean displacement of the particles seeded around it (the
 //! grid's own interpolation kernel, 1.5 cells wide), so it follows the body as its Gaussians do.
+//! The deck's [[point_mass]] entries are added to the particles in their regions
+//! (mpm/PointMass.hpp), as in the MPM solver; a region without particles is an InputError at
+//! construction.
 //
 // Effects it represents: the deck's E, nu and density; gravity; Rayleigh damping (mass: on the
 // grid velocity; stiffness: a viscous Kirchhoff stress beta (2 mu D + lambda tr(D) I) of the

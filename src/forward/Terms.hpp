@@ -17,6 +17,10 @@ namespace gen4d::forward {
 struct ForceNode {
   double mass = 0;  //!< kg
   double area = 0;  //!< exposed area it carries, m^2 (clamp faces excluded)
+  //! Its reference position, m; support_distance: how far it lies from the nearest [[fixed]]
+  //! node, m (the voxel model; infinite where the deck holds nothing, and in the MPM model).
+  Vec3d X{0, 0, 0};
+  double support_distance = std::numeric_limits<double>::infinity();
 };
 
 //! A force on every free node (voxel model) or particle (MPM model). Its damping part is
@@ -73,6 +77,19 @@ struct ModelTerms {
   std::vector<StiffnessBox> stiffness_boxes;
   //! Contact planes besides the deck's colliders.
   std::vector<ContactPlane> planes;
+  //! Rigid masses added to the body (voxel model): `mass` kg over the nodes whose reference
+  //! position lies within `spread` (m, per axis) of `at`, weighted by a tent
+  //! prod_a max(0, 1 - |X_a - at_a| / spread_a) times the node's own mass, so the mass and its
+  //! centre move continuously with `at` (spread = the cell edges: a sensor's trilinear weights).
+  struct AddedMass {
+    Vec3d at{0, 0, 0}, spread{1, 1, 1};
+    double mass = 0;
+  };
+  std::vector<AddedMass> added_masses;
+  //! The [[fixed]] nodes held rigidly along their clamp face's plane but on springs of this
+  //! stiffness per unit clamp area along its normal (Pa/m; rigid at inf): a support that gives in
+  //! rotation (a vise's jaws) but not in translation.
+  double clamp_normal_stiffness = std::numeric_limits<double>::infinity();
   //! Forces on the nodes, in library order.
   std::vector<std::shared_ptr<const NodeForce>> node_forces;
 

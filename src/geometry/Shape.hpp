@@ -169,6 +169,12 @@ inline Aabb object_bounds(const Shape& s) {
 void voxelize(const Shape& s, const Eigen::Vector3d& origin, double h,
               const std::array<long, 3>& cell_lo, const std::array<long, 3>& cell_hi,
               std::vector<std::uint8_t>& occ);
+//! The same with cells of edges spacing = (hx, hy, hz): cell (i,j,k) spans
+//! origin + [i hx, (i+1) hx] x [j hy, (j+1) hy] x [k hz, (k+1) hz]. Equal edges give the
+//! scalar form's cells exactly.
+void voxelize(const Shape& s, const Eigen::Vector3d& origin, const Eigen::Vector3d& spacing,
+              const std::array<long, 3>& cell_lo, const std::array<long, 3>& cell_hi,
+              std::vector<std::uint8_t>& occ);
 
 //! Number of non-zero entries.
 long count_solid(const std::vector<std::uint8_t>& occ);

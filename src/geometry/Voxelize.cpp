@@ -32,6 +32,14 @@ void voxelize(const Shape& s, const Eigen::Vector3d& origin, double h,
               const std::array<long, 3>& cell_lo, const std::array<long, 3>& cell_hi,
               std::vector<std::uint8_t>& occ) {
   if (!(h > 0)) throw std::invalid_argument("voxelize: cell size must be positive");
+  voxelize(s, origin, Eigen::Vector3d(h, h, h), cell_lo, cell_hi, occ);
+}
+
+void voxelize(const Shape& s, const Eigen::Vector3d& origin, const Eigen::Vector3d& spacing,
+              const std::array<long, 3>& cell_lo, const std::array<long, 3>& cell_hi,
+              std::vector<std::uint8_t>& occ) {
+  for (int d = 0; d < 3; ++d)
+    if (!(spacing[d] > 0)) throw std::invalid_argument("voxelize: cell size must be positive");
   std::array<long, 3> n{};
   for (int d = 0; d < 3; ++d) {
     if (cell_hi[d] < cell_lo[d]) throw std::invalid_argument("voxelize: cell_hi < cell_lo");
@@ -42,15 +50,16 @@ void voxelize(const Shape& s, const Eigen::Vector3d& origin, double h,
   if (box.empty() || occ.empty()) return;
   std::array<long, 3> first{}, last{};
   for (int d = 0; d < 3; ++d)
-    candidate_range(box.lo[d], box.hi[d], origin[d], h, cell_lo[d], cell_hi[d], first[d], last[d]);
+    candidate_range(box.lo[d], box.hi[d], origin[d], spacing[d], cell_lo[d], cell_hi[d], first[d],
+                    last[d]);
   Eigen::Vector3d p;
   for (long k = first[2]; k < last[2]; ++k) {
-    p.z() = origin.z() + h * (static_cast<double>(k) + 0.5);
+    p.z() = origin.z() + spacing.z() * (static_cast<double>(k) + 0.5);
     for (long j = first[1]; j < last[1]; ++j) {
-      p.y() = origin.y() + h * (static_cast<double>(j) + 0.5);
+      p.y() = origin.y() + spacing.y() * (static_cast<double>(j) + 0.5);
       std::uint8_t* row = occ.data() + ((k - cell_lo[2]) * n[1] + (j - cell_lo[1])) * n[0];
       for (long i = first[0]; i < last[0]; ++i) {
-        p.x() = origin.x() + h * (static_cast<double>(i) + 0.5);
+        p.x() = origin.x() + spacing.x() * (static_cast<double>(i) + 0.5);
         row[i - cell_lo[0]] = s.inside(p) ? 1 : 0;
       }
     }

@@ -19,6 +19,7 @@
 #include "gaussians/Ply.hpp"
 #include "gaussians/Render.hpp"
 #include "gaussians/Video.hpp"
+#include "mpm/PointMass.hpp"
 #include "mpm/Seeding.hpp"
 #include "parallel/Comm.hpp"
 #include "parallel/Reduce.hpp"
@@ -263,6 +264,7 @@ MpmSimulation::MpmSimulation(MPI_Comm comm, const Config& cfg, bool seed) : comm
                      "[mpm] lo/hi, and larger than domain.voxel_size / particles_per_axis?)");
   total_ = n;
   assign_material_slots(cfg_, materials, lattice_count, splat_part, p);
+  add_point_masses(comm_, cfg_.point_masses, p);
   solver_->distribute(std::move(p));
   const long long local = static_cast<long long>(solver_->particles().size());
   const long long most = parallel::max_of(comm_, local), least = parallel::min_of(comm_, local);

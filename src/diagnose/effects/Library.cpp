@@ -17,7 +17,11 @@ namespace gen4d::diagnose::effects {
   X(clamp_compliance)             \
   X(contact_friction)             \
   X(air_drag)                     \
-  X(coulomb_damping)
+  X(coulomb_damping)              \
+  X(support_rotation)             \
+  X(support_friction)             \
+  X(added_mass)                   \
+  X(sensor_mass)
 
 #define GEN4D_DECLARE_EFFECT(name) std::unique_ptr<Effect> make_##name();
 GEN4D_DIAGNOSE_EFFECTS(GEN4D_DECLARE_EFFECT)
