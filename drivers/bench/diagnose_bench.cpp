@@ -28,9 +28,11 @@
 // one of the runs alone, --poisson another Poisson ratio (a calibration that absorbs a soft region
 // bends it to its bound, 0.45).
 // --deck FILE --point X,Y,Z times a deck instead: one accelerometer at the point, sampled at
-// --rate Hz over the deck's end_time, with the deck's law and (the baseline, same process) with
-// fixed_corotated, the nonlinear law whose tangent the Newton iteration rebuilds (e.g.
-// inputs/strip_plain.toml, the thin strip: 6 s at 500 Hz); pre-loads released over 2 ms.
+// --rate Hz over the deck's end_time, with the deck's law, then (baselines, same process) the
+// same iterated to the Newton tolerance (a linear problem takes one solve a step otherwise:
+// Physics::linear_single_solve) and with fixed_corotated, the nonlinear law whose tangent the
+// Newton iteration rebuilds (e.g. inputs/strip_plain.toml, the thin strip: 6 s at 500 Hz);
+// pre-loads released over 2 ms.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -102,7 +104,7 @@ std::string json(const char* name, const Result& r) {
       rest);
 }
 
-//! --deck mode: the deck's run with its own law, then with fixed_corotated, as JSON.
+//! --deck mode: the deck's run with its own law, iterated, then with fixed_corotated, as JSON.
 int time_deck(const std::string& path, const Vec3d& point, double rate, int repeat) {
   const Config cfg = load_deck(path, {});
   const diagnose::VoxelModel model(cfg);
@@ -116,14 +118,17 @@ int time_deck(const std::string& path, const Vec3d& point, double rate, int repe
   own.release_duration = 0.002;  // a pre-load let go over 2 ms, as diagnose starts its fit
   diagnose::Physics corotated = own;
   corotated.law = "fixed_corotated";
+  diagnose::Physics iterated = own;
+  iterated.linear_single_solve = false;
   const Result r = time_run("deck", model, own, req, repeat);
-  std::string baseline;
+  const Result it = time_run("iterated", model, iterated, req, repeat);
+  std::string baseline = json("iterated", it) + ",\n";
   try {
     const Result c = time_run("fixed_corotated", model, corotated, req, repeat);
-    baseline = json("fixed_corotated", c) +
-               fmt::format("\n  }},\n  \"corotated_over_deck\": {:.3f}\n}}", c.wall / r.wall);
+    baseline += json("fixed_corotated", c) +
+                fmt::format("\n  }},\n  \"corotated_over_deck\": {:.3f}\n}}", c.wall / r.wall);
   } catch (const std::runtime_error& e) {  // the nonlinear law may not converge on thin parts
-    baseline = fmt::format("    \"fixed_corotated\": {{\"failed\": \"{}\"}}\n  }}\n}}", e.what());
+    baseline += fmt::format("    \"fixed_corotated\": {{\"failed\": \"{}\"}}\n  }}\n}}", e.what());
   }
   std::printf("{\n  \"deck\": \"%s\", \"voxels\": %zu, \"nodes\": %zu, \"samples\": %ld,\n",
               path.c_str(), model.voxels(), model.nodes(), n);

@@ -180,6 +180,23 @@ GEN4D_ALWAYS_INLINE void lanes_corotated(const Lanes F[9], double mu, double lam
     for (int q = 0; q < kLanes; ++q) P[i][q] = m2 * (F[i][q] - X[i][q]) + d[q] * C[i][q];
 }
 
+// Linear: e = (F + F^T) / 2 - I, P = 2 mu e + lambda tr(e) I, in the order of
+// materials::LinearElastic::pk1 (m2 = 2 mu).
+GEN4D_ALWAYS_INLINE void lanes_linear(const Lanes F[9], double m2, double lambda, Lanes P[9]) {
+  alignas(64) Lanes tr;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      const double id = r == c ? 1.0 : 0.0;
+      for (int q = 0; q < kLanes; ++q)
+        P[3 * r + c][q] = 0.5 * (F[3 * r + c][q] + F[3 * c + r][q]) - id;
+    }
+  for (int q = 0; q < kLanes; ++q) tr[q] = lambda * (P[0][q] + P[4][q] + P[8][q]);
+  for (int i = 0; i < 9; ++i) {
+    const double id = i % 4 == 0 ? 1.0 : 0.0;
+    for (int q = 0; q < kLanes; ++q) P[i][q] = m2 * P[i][q] + tr[q] * id;
+  }
+}
+
 GEN4D_ALWAYS_INLINE void tangent_body(const ElasticTangent& t, const double x[kShapes][3], double w,
                                       double* Ke) {
   constexpr int n = 3 * kShapes;
@@ -281,6 +298,9 @@ GEN4D_ALWAYS_INLINE void force_pass_body(const ElasticForcePass& p) {
       case ElasticLaw::Corotated:
         lanes_corotated(F, p.mu, p.lambda, P);
         break;
+      case ElasticLaw::Linear:
+        lanes_linear(F, m2, p.lambda, P);
+        break;
       default:
         lanes_stvk(F, m2, p.lambda, P, p.continued);
     }
@@ -296,15 +316,19 @@ GEN4D_ALWAYS_INLINE void force_pass_body(const ElasticForcePass& p) {
     }
     if (kv) {
       // Viscous stress beta (2 mu Ed + lambda tr(Ed) I) of the Green strain rate
-      // Ed = sym(F^T dF/dt), carried by F.
+      // Ed = sym(F^T dF/dt), carried by F; under the linear law of Ed = sym(dF/dt), added.
+      const bool linear = p.law == ElasticLaw::Linear;
       alignas(64) Lanes Fd[9], Ed[9];
       lanes_grad(G, ve, Fd);
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
           for (int q = 0; q < kLanes; ++q) {
             double e = 0;
-            for (int k = 0; k < 3; ++k)
-              e += F[3 * k + i][q] * Fd[3 * k + j][q] + Fd[3 * k + i][q] * F[3 * k + j][q];
+            if (linear)
+              e = Fd[3 * i + j][q] + Fd[3 * j + i][q];
+            else
+              for (int k = 0; k < 3; ++k)
+                e += F[3 * k + i][q] * Fd[3 * k + j][q] + Fd[3 * k + i][q] * F[3 * k + j][q];
             Ed[3 * i + j][q] = 0.5 * e;
           }
       for (int q = 0; q < kLanes; ++q) tr[q] = Ed[0][q] + Ed[4][q] + Ed[8][q];
@@ -312,11 +336,15 @@ GEN4D_ALWAYS_INLINE void force_pass_body(const ElasticForcePass& p) {
         for (int q = 0; q < kLanes; ++q) Ed[i][q] = kv_m2 * Ed[i][q];  // now Sv
       for (int i = 0; i < 3; ++i)
         for (int q = 0; q < kLanes; ++q) Ed[4 * i][q] += kv_l * tr[q];
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-          for (int q = 0; q < kLanes; ++q)
-            P[3 * i + j][q] += F[3 * i][q] * Ed[j][q] + F[3 * i + 1][q] * Ed[3 + j][q] +
-                               F[3 * i + 2][q] * Ed[6 + j][q];
+      if (linear)
+        for (int i = 0; i < 9; ++i)
+          for (int q = 0; q < kLanes; ++q) P[i][q] += Ed[i][q];
+      else
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            for (int q = 0; q < kLanes; ++q)
+              P[3 * i + j][q] += F[3 * i][q] * Ed[j][q] + F[3 * i + 1][q] * Ed[3 + j][q] +
+                                 F[3 * i + 2][q] * Ed[6 + j][q];
     }
     const double f = p.vfac[vx];
     for (int i = 0; i < 9; ++i)

@@ -39,10 +39,11 @@ using materials::mises;
 //! pk1, operation for operation (corotated: with the rotation of
 //! materials::polar_rotation_newton, the signed SVD's where that declines, as the scalar
 //! element loop takes it).
-enum class ElasticLaw { StVK, NeoHookean, Corotated };
+enum class ElasticLaw { StVK, NeoHookean, Corotated, Linear };
 
 //! One internal-force pass over the voxels (an elastic law; optional one-term Prony
-//! relaxation and Kelvin-Voigt stiffness damping).
+//! relaxation and Kelvin-Voigt stiffness damping: of the Green strain rate, carried by F, or
+//! under the linear law of sym(dF/dt), as the scalar element loop takes them).
 struct ElasticForcePass {
   ElasticLaw law = ElasticLaw::StVK;
   std::size_t voxels = 0;

@@ -668,7 +668,8 @@ class VoxelRun {
   std::vector<char> active;
   // Constitutive state per Gauss point.
   bool plastic = false, visco = false, kelvin_voigt = false;
-  HenckyJ2 j2;  // von Mises with linear hardening (Hencky elasticity)
+  bool linear_steps = false;  // one solve a step (Physics::linear_single_solve)
+  HenckyJ2 j2;                // von Mises with linear hardening (Hencky elasticity)
   std::vector<double> fp_inv, fp_inv_new, pstate, pstate_new, qv, qv_new;
   double rv = 0;
   std::vector<double> u, v, a, u1, v1, a1, a_prev, fext, fint;
@@ -682,7 +683,9 @@ class VoxelRun {
   long step_continued = 0;  // StVK: Gauss points continued at the step's predictor
   double G[8][kShapes][3];
   static constexpr bool kStvk = std::is_same_v<Law, materials::StVK>;
-  static constexpr bool kLaneLaw = kStvk || std::is_same_v<Law, materials::NeoHookean> ||
+  static constexpr bool kLinearLaw = std::is_same_v<Law, materials::LinearElastic>;
+  static constexpr bool kLaneLaw = kStvk || kLinearLaw ||
+                                   std::is_same_v<Law, materials::NeoHookean> ||
                                    std::is_same_v<Law, materials::FixedCorotated>;
   bool vector_pass = false, vector_tangent = false;
   ElasticForcePass pass;
@@ -886,6 +889,8 @@ class VoxelRun {
           Dn[q][l][c] = cube ? S.dN[q][l][c] : S.dN[q][l][c] * h[0] / h[c];
     fint.resize(3 * nn);
     kelvin_voigt = tm.rayleigh_beta != 0;
+    linear_steps = ph.linear_single_solve && kLinearLaw && !plastic && !visco && planes.empty() &&
+                   tm.node_forces.empty();
     if constexpr (kLaneLaw) setup_vector_kernels();
   }
 
@@ -895,11 +900,13 @@ class VoxelRun {
   //! in the scalar loop).
   void setup_vector_kernels() {
     vector_pass = md_.vector_kernels_ && !plastic;
-    vector_tangent = vector_pass && !HasPk1Jacobian<Law>::value;
+    // The linear law's tangent (its rest stiffness, built a few times a run) stays scalar.
+    vector_tangent = vector_pass && !HasPk1Jacobian<Law>::value && !kLinearLaw;
     for (int q = 0; q < 8; ++q)
       for (int l = 0; l < kShapes; ++l)
         for (int c = 0; c < 3; ++c) Gl[l][c][q] = G[q][l][c];
     pass.law = kStvk                                        ? ElasticLaw::StVK
+               : kLinearLaw                                 ? ElasticLaw::Linear
                : std::is_same_v<Law, materials::NeoHookean> ? ElasticLaw::NeoHookean
                                                             : ElasticLaw::Corotated;
     pass.voxels = nv;
@@ -1047,22 +1054,32 @@ class VoxelRun {
   //! Stiffness-proportional (Kelvin-Voigt) damping as a viscous stress: beta times the linear
   //! elastic law applied to the Green strain rate sym(F^T dF/dt), P_v = F S_v. It is beta K v
   //! for small motions, and it does not resist rigid rotation (beta K0 v would: a cantilever
-  //! swinging through large angles would be damped spuriously).
+  //! swinging through large angles would be damped spuriously). Under the linear law, whose
+  //! own stress resists rotation alike, it is beta times that law of sym(dF/dt): the step stays
+  //! linear (one solve a step).
   void add_viscous_stress(int q, const double F[9], const double (&ve)[kShapes][3],
                           double P[9]) const {
+    constexpr bool kLinear = kLinearLaw;
     double Fd[9], Ed[9];
     grad_at(G[q], ve, Fd);  // dF/dt
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) {
         double e = 0;
-        for (int k = 0; k < 3; ++k)
-          e += F[3 * k + i] * Fd[3 * k + j] + Fd[3 * k + i] * F[3 * k + j];
+        if constexpr (kLinear)
+          e = Fd[3 * i + j] + Fd[3 * j + i];
+        else
+          for (int k = 0; k < 3; ++k)
+            e += F[3 * k + i] * Fd[3 * k + j] + Fd[3 * k + i] * F[3 * k + j];
         Ed[3 * i + j] = 0.5 * e;
       }
     const double trace = Ed[0] + Ed[4] + Ed[8];
     double Sv[9];
     for (int i = 0; i < 9; ++i) Sv[i] = tm.rayleigh_beta * 2.0 * mu0 * Ed[i];
     for (int i = 0; i < 3; ++i) Sv[4 * i] += tm.rayleigh_beta * lambda0 * trace;
+    if constexpr (kLinear) {
+      for (int i = 0; i < 9; ++i) P[i] += Sv[i];
+      return;
+    }
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j)
         P[3 * i + j] += F[3 * i] * Sv[j] + F[3 * i + 1] * Sv[3 + j] + F[3 * i + 2] * Sv[6 + j];
@@ -1509,7 +1526,7 @@ class VoxelRun {
       const double dmax = correct();
       ++tr.newton_iterations;
       if (!std::isfinite(dmax)) return false;
-      if (dmax < tol_du) return true;
+      if (dmax < tol_du || (linear_steps && !full_newton)) return true;
       if (attempt == 0 && it >= 1 && dmax > 2 * dmax_prev && dmax > 100 * tol_du) return false;
       // A stale tangent shows as slow contraction: rebuild it at the current state.
       if ((full_newton && dmax > 0.1 * dmax_prev) ||

@@ -72,6 +72,11 @@ struct Physics {
   //! factor (from the third iteration on). A rebuild costs ~27 iterations on the 20x4x4 beam
   //! and ~150 on its h/2 model, whose factorization dominates a run.
   double refresh_contraction = 0.5;
+  //! A linear problem (the linear law; no plasticity, viscoelasticity, contact or node forces)
+  //! takes one solve a step: its step matrix is its exact tangent, so the first correction is
+  //! the step's solution up to rounding and a second iteration would only confirm it. false:
+  //! iterate to the tolerance anyway (tests compare the two).
+  bool linear_single_solve = true;
 };
 
 //! A point attached to the body: the voxel containing it and trilinear weights of its nodes.
