@@ -1516,6 +1516,104 @@ TEST(DiagnoseAcrossRanks, ReportIsTheSameAtOneAndTwoRanks) {
                                  << " ranks from 1 rank's";
 }
 
+TEST(DiagnoseEndToEnd, RefitsThePreloadsReleaseWithTheEffect) {
+  // A strip pre-loaded at its tip and released (box cells, the linear law): the recording has
+  // twice the deck's pre-load, a 2 ms time offset, a 3 ms release and mass damping (computed
+  // with dt / 2, filtered at 60 Hz as the diagnosis is told). The calibration (no
+  // damping) answers the decay with a smaller pre-load; the damping's fit must move the release
+  // state again (it is the tail of every effect's problem) and report it.
+  int rank = 0, size = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  const Config cfg = parse_deck(R"(
+[simulation]
+dt = 0.0005
+end_time = 0.4
+gravity = [0.0, 0.0, 0.0]
+[domain]
+voxel_size = [0.01, 0.015, 0.001]
+[[geometry]]
+type = "box"
+lo = [0.0, 0.0, 0.0]
+hi = [0.3, 0.03, 0.002]
+[material]
+model = "linear"
+youngs_modulus = 7.0e10
+poisson_ratio = 0.3
+density = 2700.0
+[[fixed]]
+lo = [-1.0, -1.0, -1.0]
+hi = [1.0e-6, 1.0, 1.0]
+[[force]]
+lo = [0.29, -1.0, -1.0]
+hi = [1.0, 1.0, 1.0]
+force = [0.0, 0.0, 0.3]
+start = -1.0
+end = 0.0
+)",
+                                "<pre-loaded strip>", ".");
+  const VoxelModel m(cfg);
+  Physics truth = m.nominal();
+  truth.load_scale = 2.0;
+  truth.time_offset = 0.002;
+  truth.release_duration = 0.003;
+  truth.dt = 0.00025;     // finer than the model's steps
+  truth.lowpass_hz = 60;  // the recording's filter: the first mode (19 Hz) alone
+  set_effect_terms(truth, "damping", {3.0, 0});  // modal damping ~1.3 % of the first mode
+  std::vector<ChannelRequest> req(1);
+  req[0].at = m.attach({0.29, 0.015, 0.002});
+  req[0].acceleration = true;
+  for (int k = 0; k < 200; ++k) req[0].t.push_back(0.002 * k);
+  const Trace tr = m.run(truth, req);
+  ASSERT_TRUE(tr.ok) << tr.failure;
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0, 0.02);  // m/s^2
+  Recording rec;
+  Channel ch;
+  ch.kind = ChannelKind::Acceleration;
+  ch.id = "1";
+  ch.X = {0.29, 0.015, 0.002};
+  for (std::size_t k = 0; k < req[0].t.size(); ++k) {
+    ch.t.push_back(req[0].t[k]);
+    std::array<double, 3> v{};
+    for (int d = 0; d < 3; ++d) v[d] = tr.channel[0][3 * k + d] + noise(rng);
+    ch.value.push_back(v);
+  }
+  rec.channels.push_back(ch);
+  const std::string dir = "diagnose_release_np" + std::to_string(size);
+  if (rank == 0) {
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    write_recording_csv(rec, dir + "/rec.csv");
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  DiagnoseOptions opt;
+  opt.recordings = {acceleration_csv_path(dir + "/rec.csv")};
+  opt.out_dir = dir + "/out";
+  opt.effects = {"damping"};
+  opt.refit = 1;
+  opt.lowpass_hz = 60;
+  EXPECT_EQ(run_diagnose(MPI_COMM_WORLD, cfg, opt), 0);
+  if (rank != 0) return;
+  const std::string js = file_text(opt.out_dir + "/report.json");
+  EXPECT_NE(js.find("\"effect\": \"damping\""), std::string::npos) << js.substr(0, 400);
+  std::smatch mt;
+  ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"preload_scale\": ([-0-9.e+]+)")));
+  EXPECT_NEAR(std::stod(mt[1].str()), 2.0, 0.04);
+  ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"time_offset\": ([-0-9.e+]+)")));
+  EXPECT_NEAR(std::stod(mt[1].str()), 0.002, 0.0005);
+  ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"release_duration\": ([-0-9.e+]+)")));
+  EXPECT_NEAR(std::stod(mt[1].str()), 0.003, 0.001);
+  // One mode passes the filter: mass and stiffness damping are one modal damping ratio to it,
+  // alpha / (2 omega_1) = 1.29 % at the recorded 18.5 Hz.
+  ASSERT_TRUE(
+      std::regex_search(js, mt,
+                        std::regex("\"modes_hz\": \\{\"measured\": "
+                                   "\\[([-0-9.e+]+).*\"modal_damping_ratio\": \\[([-0-9.e+]+)")));
+  const double zeta1 = 3.0 / (2 * 2 * std::acos(-1.0) * std::stod(mt[1].str()));
+  EXPECT_NEAR(std::stod(mt[2].str()) / zeta1, 1.0, 0.05);
+}
+
 TEST(DiagnoseEndToEnd, SaysMissingPhysicsNotIdentifiedWhenTheLibraryLacksIt) {
   // The damped recording with a library that cannot damp (only the other hyperelastic laws,
   // alike at these strains): the misfit is far beyond the noise and the voxels' own error, so

@@ -19,9 +19,10 @@ LsqProblem effect_problem(State& s, const Effect& e, const std::string& variant)
   const EffectContext& ctx = s.ctx;
   const auto specs = e.params(ctx, variant);
   LsqProblem pr;
-  pr.lo = pb.lo;
-  pr.hi = pb.hi;
-  pr.step = pb.step;
+  // (log E, nu) from the baseline's problem, whose release state (if any) goes to the tail.
+  pr.lo.assign(pb.lo.begin(), pb.lo.begin() + 2);
+  pr.hi.assign(pb.hi.begin(), pb.hi.begin() + 2);
+  pr.step.assign(pb.step.begin(), pb.step.begin() + 2);
   for (const auto& sp : specs) {
     pr.lo.push_back(to_z(sp, sp.lo));
     pr.hi.push_back(to_z(sp, sp.hi));

@@ -288,6 +288,11 @@ void verdict(State& s) {
     D.fitted_pred = best->pred;
     D.youngs_modulus = best->youngs_modulus;
     D.poisson_ratio = best->poisson_ratio;
+    // The release state as the effect's fit moved it (its trailing parameters).
+    const std::size_t nr = s.release_specs.size();
+    if (nr > 0 && best->z.size() == 2 + best->params.size() + nr)
+      for (std::size_t j = 0; j < nr; ++j)
+        D.release[j].value = from_z(s.release_specs[j], best->z[best->z.size() - nr + j]);
     if (D.effect == "heterogeneity") D.has_region = true, D.region = s.ctx.region;
   }
   if (D.fitted_pred.ok) {
