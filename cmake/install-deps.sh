@@ -28,6 +28,8 @@ pkgs=(
   python3-matplotlib python3-h5py python3-numpy
   calculix-ccx
   ffmpeg
+  slurm-wlm munge                         # a one-node Slurm cluster for the batch-job tests
+  clang libclang-rt-dev shellcheck        # libFuzzer, ASan/UBSan, the job-script linter
 )
 if [ "$want_torch" = 1 ]; then pkgs+=(libtorch-dev); fi
 

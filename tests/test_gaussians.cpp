@@ -360,6 +360,11 @@ TEST_F(GaussiansTest, PlyBadFiles) {
     std::string text = make_ply(good, 5, true);
     text.resize(text.rfind('\n', text.size() - 2) + 1);  // row 4 absent
     bad("truncated_ascii", text, {"row 4 ", "truncated"});
+    // One-character values: the rows the body can hold are counted before it is parsed, and
+    // row 1, cut after three values, lies past that count (a heap overflow found by fuzz_ply).
+    std::string zeros = make_ply(good, 2, true, [](const std::string&, int) { return 0.0; });
+    zeros.resize(zeros.size() - 2 * good.size() + 6);
+    bad("truncated_ascii_short_values", zeros, {"row 1 ", "truncated", "'" + good[3].name + "'"});
   }
   auto with = [](const std::string& prop, int row, double v) {
     return [=](const std::string& name, int i) {

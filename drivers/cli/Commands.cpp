@@ -27,7 +27,9 @@
 #include "core/DeckUse.hpp"
 #include "core/Error.hpp"
 #include "core/Log.hpp"
+#include "core/MemoryEstimate.hpp"
 #include "parallel/Signals.hpp"
+#include "parallel/Watchdog.hpp"
 #include "diagnose/Diagnose.hpp"
 #include "diagnose/Effects.hpp"
 #include "diagnose/Recording.hpp"
@@ -53,6 +55,18 @@ struct RunArgs {
   std::string model_path;    //!< its trained model folder
   bool output_ply = false;   //!< also PhysGaussian's simulation_ply/sim_NNNNNNNNNN.ply files
 };
+
+//! Options of run and restart that guard against faults.
+struct FaultOptions {
+  double watchdog = watchdog::kDefaultSeconds;  //!< --watchdog: seconds without progress
+  bool skip_memory_check = false;               //!< --skip-memory-check
+};
+FaultOptions g_faults;
+
+//! Refuses up front a deck whose estimated memory the machine does not have.
+void check_memory(const Config& cfg) {
+  if (!g_faults.skip_memory_check) memory::check(MPI_COMM_WORLD, cfg);
+}
 
 int rank_of(MPI_Comm c) {
   int r = 0;
@@ -133,7 +147,10 @@ void check_output_dir(const std::string& out, bool overwrite, const char* frames
 
 int run_mpm(mpm::MpmSimulation& sim, const std::string& out, bool append) {
   signals::install();
-  const auto res = sim.run(out, append);
+  const auto res = [&] {
+    watchdog::Scope watch(g_faults.watchdog);
+    return sim.run(out, append);
+  }();
   if (res.exit_code == 0)
     log::info("done: {} substeps in {:.2f} s; particles {}/particles.h5 (+ .xdmf), checkpoint {}",
               res.substeps, res.wall_seconds, out, res.last_checkpoint);
@@ -160,7 +177,10 @@ bool is_mpm_checkpoint(const std::string& path) {
 
 int run_simulation(elastogen::Simulation& sim, const std::string& out, bool append) {
   signals::install();
-  const auto res = sim.run(out, append);
+  const auto res = [&] {
+    watchdog::Scope watch(g_faults.watchdog);
+    return sim.run(out, append);
+  }();
   if (res.exit_code == 0)
     log::info("done: {} steps in {:.2f} s; frames {}/frames.h5 (+ .xdmf), checkpoint {}", res.steps,
               res.wall_seconds, out, res.last_checkpoint);
@@ -176,7 +196,9 @@ int cmd_run(const RunArgs& a) {
     check_output_dir(out, a.overwrite, "particles.h5");
     const std::string deck = convert_physgaussian(MPI_COMM_WORLD, a.physgaussian, a.model_path,
                                                   (fs::path(out) / "physgaussian").string());
-    mpm::MpmSimulation sim(MPI_COMM_WORLD, load_deck(deck, a.sets));
+    const Config cfg = load_deck(deck, a.sets);
+    check_memory(cfg);
+    mpm::MpmSimulation sim(MPI_COMM_WORLD, cfg);
     const int code = run_mpm(sim, out, false);
     if (code == 0 && a.output_ply) write_physgaussian_plys(MPI_COMM_WORLD, out);
     return code;
@@ -187,6 +209,7 @@ int cmd_run(const RunArgs& a) {
                    ? parse_deck(default_deck_text, "<embedded default>", default_deck_dir(), a.sets)
                    : load_deck(a.deck, a.sets);
   const std::string out = a.out.empty() ? cfg.output.dir : a.out;
+  check_memory(cfg);
   if (cfg.solver.method == "mpm") {
     mpm::MpmSimulation sim(MPI_COMM_WORLD, cfg);  // validates material and geometry
     check_output_dir(out, a.overwrite, "particles.h5");
@@ -215,6 +238,7 @@ int cmd_restart(const std::string& checkpoint, const std::string& out_arg,
   if (is_mpm_checkpoint(checkpoint)) {
     const auto meta = mpm::read_particle_checkpoint_meta(MPI_COMM_WORLD, checkpoint);
     Config cfg = parse_deck(meta.deck_text, stored, ".", sets);
+    check_memory(cfg);
     mpm::MpmSimulation sim(MPI_COMM_WORLD, cfg, false);
     sim.load_checkpoint(checkpoint);
     const auto [dir, append] = restart_target(checkpoint, out_arg, "particles.h5");
@@ -222,6 +246,7 @@ int cmd_restart(const std::string& checkpoint, const std::string& out_arg,
   }
   const io::CheckpointMeta meta = io::read_checkpoint_meta(MPI_COMM_WORLD, checkpoint);
   Config cfg = parse_deck(meta.deck_text, stored, ".", sets);
+  check_memory(cfg);
   elastogen::Simulation sim(MPI_COMM_WORLD, cfg);
   sim.load_checkpoint(checkpoint);
   const auto [dir, append] = restart_target(checkpoint, out_arg, "frames.h5");
@@ -397,6 +422,16 @@ int dispatch(int argc, char** argv) {
   restart->add_option("--set,-s", rs_sets,
                       "Override a key of the stored deck (e.g. simulation.end_time)");
   restart->add_flag("--mp4", restart_mp4, "Render every output frame and assemble OUT/render.mp4");
+  for (CLI::App* command : {run, restart}) {
+    command
+        ->add_option("--watchdog", g_faults.watchdog,
+                     "Abort the job when a rank makes no progress for this many seconds (a "
+                     "rank hung or dead); 0: no watchdog")
+        ->capture_default_str()
+        ->check(CLI::NonNegativeNumber);
+    command->add_flag("--skip-memory-check", g_faults.skip_memory_check,
+                      "Run even when the deck's memory estimate exceeds the available memory");
+  }
 
   auto* info =
       app.add_subcommand("info", "Version, git revision, build options, dependencies, ranks, GPUs");

@@ -13,6 +13,7 @@
 #include <mpi.h>
 #include <petscsys.h>
 
+#include <csignal>
 #include <cstdio>
 #include <exception>
 #include <string>
@@ -21,6 +22,7 @@
 #include "core/Error.hpp"
 #include "core/Log.hpp"
 #include "core/ParallelFor.hpp"
+#include "parallel/Watchdog.hpp"
 #ifdef GEN4D_WITH_TORCH
 #include "neural_train/Install.hpp"
 #endif
@@ -34,11 +36,16 @@ int fail(int code, const std::string& msg, int rank) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // A batch system's early SIGUSR1 ("checkpoint soon") must not kill the process before a
+  // run installs its handler (parallel/Signals.hpp); until then it is ignored.
+  std::signal(SIGUSR1, SIG_IGN);
   int provided = 0;
   MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
   int rank = 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   gen4d::log::set_rank(rank);
+  // An MPI error names its rank before the job is aborted.
+  gen4d::watchdog::install_mpi_error_handler();
   gen4d::exec::configure_threads();  // OMP_NUM_THREADS, else the node's cores per rank
   // gen4d handles SIGTERM/SIGUSR1 itself (checkpoint, then stop); PETSc must not trap them.
   PetscOptionsSetValue(nullptr, "-no_signal_handler", nullptr);

@@ -10,6 +10,7 @@ tmp=$(mktemp -d)
 for np in ${RANKS:-1 2}; do
   mpirun -np "$np" "$BENCH" "$@" > "$tmp/np$np.json"
 done
+# shellcheck disable=SC2086  # RANKS is a list of rank counts, one argument each
 python3 - "$tmp" ${RANKS:-1 2} <<'PY'
 import json, sys
 d, ranks = sys.argv[1], sys.argv[2:]

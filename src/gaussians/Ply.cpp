@@ -247,6 +247,8 @@ void read_body(const std::string& path, const std::string& bytes, const Header& 
   const char* end = bytes.data() + bytes.size();
   auto space = [](char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r'; };
   for (std::size_t i = 0; i < h.count; ++i) {
+    // Only complete rows fit that bound: a last row cut short (reported below) may start past it.
+    if (values.size() < (i + 1) * slots) values.resize((i + 1) * slots);
     for (std::size_t k = 0; k < h.props.size(); ++k) {
       while (p < end && space(*p)) ++p;
       if (p == end)

@@ -2,6 +2,7 @@
 //! partial file.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <string_view>
 
@@ -21,5 +22,11 @@ std::string try_write_atomically(const std::string& path, std::string_view bytes
 
 //! try_write_atomically through temp_beside(path), throwing RuntimeError with its message.
 void write_atomically(const std::string& path, std::string_view bytes, bool with_pid = false);
+
+//! Why writing `needed` more bytes to `path` fails or would fail, for a message: "no space
+//! left on device (N bytes free in DIR)" when its file system has less than `needed` free (less
+//! than 1 MiB for `needed` 0: after a failed write), "the file size limit (ulimit -f) of N
+//! bytes" when the file would pass it, else "".
+std::string write_failure_cause(const std::string& path, std::uintmax_t needed = 0);
 
 }  // namespace gen4d::io

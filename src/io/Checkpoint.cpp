@@ -1,14 +1,20 @@
 #include "io/Checkpoint.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
+#include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <thread>
 
 #include "core/Error.hpp"
 #include "core/Log.hpp"
+#include "io/AtomicFile.hpp"
 #include "io/BytePack.hpp"
 #include "io/Hdf5.hpp"
 
@@ -108,6 +114,50 @@ CheckpointMeta unpack(const std::string& buffer) {
   return m;
 }
 
+//! Removes the hidden .checkpoint_<digits>.h5.tmp files in `dir`: a run killed while writing a
+//! checkpoint leaves one, which no restart reads (latest_checkpoint lists checkpoint_* only).
+//! Called before this run writes its own, so none of them is being written.
+void remove_stale_temporaries(const std::string& dir) {
+  std::error_code ec;
+  std::vector<fs::path> stale;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    const std::string prefix = ".checkpoint_", suffix = ".h5.tmp";
+    if (name.size() > prefix.size() + suffix.size() && name.rfind(prefix, 0) == 0 &&
+        name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0)
+      stale.push_back(it->path());
+  }
+  for (const fs::path& p : stale) {
+    if (fs::remove(p, ec))
+      log::warn("removed {}, an unfinished checkpoint of an interrupted run", p.string());
+  }
+}
+
+//! Closes the unfinished checkpoint temporary `path` after a failed write (a full disk, most
+//! often): rank 0 first truncates it, so the metadata HDF5 still writes while closing finds the
+//! room the file's data held (HDF5 1.10 keeps a file that fails to close half open, and
+//! crashes on it at MPI_Finalize). The caller removes the file. Collective.
+void abandon(MPI_Comm comm, int rank, h5::Handle& file, const std::string& path) {
+  if (rank == 0 && ::truncate(path.c_str(), 0) != 0 && errno != ENOENT)
+    log::warn("cannot truncate {}: {}", path, std::strerror(errno));
+  MPI_Barrier(comm);
+  try {
+    file.close(h5::Failure::Runtime, path + ": cannot close");
+  } catch (const std::exception& e) {
+    log::warn("{}", e.what());
+  }
+}
+
+//! Test hook: GEN4D_TEST_SLOW_CHECKPOINT=SECONDS makes every checkpoint write wait that long
+//! with its datasets written but the temporary not yet closed, so a test can kill a rank in
+//! the middle of a checkpoint write. Unset (the default), nothing waits.
+void test_slow_checkpoint() {
+  const char* text = std::getenv("GEN4D_TEST_SLOW_CHECKPOINT");
+  if (text == nullptr || *text == '\0') return;
+  const double seconds = std::atof(text);
+  if (seconds > 0) std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+}
+
 }  // namespace
 
 std::string checkpoint_path(const std::string& dir, int step) {
@@ -176,6 +226,7 @@ void prepare_checkpoint_dir(MPI_Comm comm, const std::string& dir, const std::st
       !fs::create_directories(dir, ec)) {
     error = dir + ": cannot create the checkpoint directory (" + ec.message() + ")";
   }
+  if (rank == 0 && error.empty()) remove_stale_temporaries(dir);
   error = h5::first_error(comm, error);
   if (!error.empty()) throw RuntimeError(error);
 }
@@ -187,14 +238,30 @@ std::string commit_checkpoint_file(MPI_Comm comm, const std::string& dir, int st
   const std::string final_path = checkpoint_path(dir, step);
   const std::string temp_path =
       (fs::path(dir) / (".checkpoint_" + padded(step) + ".h5.tmp")).string();
+  // The fill and the close each end with the ranks agreeing, so that no rank goes on to a
+  // collective close while another has failed.
   std::string error;
-  try {
-    h5::Handle file = h5::create_file(comm, temp_path);
+  h5::Handle file;
+  const auto attempt = [&](const std::function<void()>& work) {
+    if (!error.empty()) return;
+    try {
+      work();
+    } catch (const std::exception& e) {
+      const std::string cause = write_failure_cause(temp_path);
+      error = final_path + ": cannot write the checkpoint (through " + temp_path +
+              "): " + e.what() + (cause.empty() ? "" : "; " + cause);
+    }
+    error = h5::first_error(comm, error);
+  };
+  attempt([&] {
+    file = h5::create_file(comm, temp_path);
     fill(file.get());
+  });
+  attempt([&] {
+    test_slow_checkpoint();
     file.close(h5::Failure::Runtime, "cannot finish the file");
-  } catch (const std::exception& e) {
-    error = temp_path + ": " + e.what();
-  }
+  });
+  if (!error.empty()) abandon(comm, rank, file, temp_path);
   error = h5::first_error(comm, error);
   if (rank == 0) {
     if (error.empty() && std::rename(temp_path.c_str(), final_path.c_str()) != 0) {

@@ -1,6 +1,7 @@
 #include "io/FrameWriter.hpp"
 
 #include "core/Error.hpp"
+#include "io/AtomicFile.hpp"
 #include "io/Xdmf.hpp"
 
 namespace gen4d::io {
@@ -80,6 +81,19 @@ void FrameWriter::write_frame(double time, int step, const NodeBox& nodes, const
                               const double* v) {
   const std::string where = path() + ": frame at step " + std::to_string(step) + ": ";
   std::string problem = box_problem(nodes, meta_.node_dims, {x, v});
+  if (problem.empty() && file_.rank() == 0) {
+    // A frame that does not fit is refused before it touches the file: HDF5 may not close a
+    // file whose write failed cleanly, and the frames before it must stay readable.
+    const double bytes = 2.0 * 3 * sizeof(double) * static_cast<double>(meta_.node_dims[0]) *
+                             static_cast<double>(meta_.node_dims[1]) *
+                             static_cast<double>(meta_.node_dims[2]) +
+                         65536.0;
+    const std::string cause = write_failure_cause(path(), static_cast<std::uintmax_t>(bytes));
+    if (!cause.empty())
+      problem = "not written (it needs about " + std::to_string(static_cast<long long>(bytes)) +
+                " bytes): " + cause + "; the " + std::to_string(frames_.size()) +
+                " frame(s) before it are intact";
+  }
   file_.raise_if_any(problem.empty() ? "" : where + problem);
   const int index = frames_.empty() ? 0 : frames_.back().index + 1;
   file_.write_group(frame_group(index), where, [&](hid_t group) {

@@ -3,10 +3,20 @@
 #include <filesystem>
 
 #include "core/Error.hpp"
+#include "io/AtomicFile.hpp"
 #include "io/FrameLayout.hpp"
 #include "io/Xdmf.hpp"
 
 namespace gen4d::io {
+namespace {
+
+//! "; no space left on device (...)" when that is why writing `path` failed, else "".
+std::string cause_of(const std::string& path) {
+  const std::string cause = write_failure_cause(path);
+  return cause.empty() ? "" : "; " + cause;
+}
+
+}  // namespace
 
 FramesFile::FramesFile(MPI_Comm comm, const std::string& h5_path, h5::Handle file)
     : comm_(comm), path_(h5_path), xdmf_path_(xdmf_path_for(h5_path)), file_(std::move(file)) {
@@ -22,7 +32,7 @@ FramesFile FramesFile::create(MPI_Comm comm, const std::string& h5_path,
     fill_root(f.file_.get());
     h5::create_group(f.file_.get(), kFramesGroup);
   } catch (const std::exception& e) {
-    error = h5_path + ": " + e.what();
+    error = h5_path + ": " + e.what() + cause_of(h5_path);
   }
   f.raise_if_any(error);
   return f;
@@ -40,7 +50,7 @@ void FramesFile::write_group(const std::string& group_name, const std::string& w
     h5::Handle group = h5::create_group(file_.get(), group_name);
     fill(group.get());
   } catch (const std::exception& e) {
-    error = where + e.what();
+    error = where + e.what() + cause_of(path_);
   }
   error = h5::first_error(comm_, error);
   if (error.empty()) return;

@@ -670,7 +670,8 @@ void render_line_chart(Canvas& c, const LineChart& chart) {
         drawn.push_back(run[i]);
         if (i == 0 || series.points) continue;
         const double len = std::hypot(run[i][0] - run[i - 1][0], run[i][1] - run[i - 1][1]);
-        const int samples = std::min(1000, int(len / 4));
+        // A segment between points beyond the pixel range has no finite length: no samples.
+        const int samples = std::isfinite(len) ? int(std::min(1000.0, len / 4)) : 0;
         for (int k = 1; k < samples; ++k) {
           const double t = double(k) / samples;
           drawn.push_back({run[i - 1][0] + t * (run[i][0] - run[i - 1][0]),

@@ -6,10 +6,11 @@
 
 namespace gen4d::signals {
 
-//! Installs the SIGTERM and SIGUSR1 handlers.
+//! Installs the SIGTERM and SIGUSR1 handlers, and ignores SIGXFSZ (a write past ulimit -f
+//! then fails with EFBIG and is reported like a full disk).
 void install();
 //! The signal any rank of `comm` received since the last call (0 if none), on every rank.
-//! Collective.
+//! Collective; also the watchdog's progress mark (parallel/Watchdog.hpp).
 int pending(MPI_Comm comm);
 
 }  // namespace gen4d::signals

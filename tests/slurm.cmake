@@ -1,0 +1,20 @@
+# The batch path on a real scheduler: each test starts its own one-node Slurm cluster
+# (jobs/slurm/local-cluster.sh, Debian's slurm-wlm and munge) in its scratch folder and stops
+# it on exit. Skipped (exit 77) where slurmctld is not installed. cli_slurm_scripts needs no
+# scheduler: shellcheck over jobs/ and a dry run of the PBS script (no PBS server available).
+# Label `slurm`: ctest -L slurm. The RESOURCE_LOCK runs the clusters one at a time.
+foreach(script cli_slurm_run cli_slurm_chain cli_slurm_sweep cli_slurm_srun)
+  set(timeout 300)
+  if(script STREQUAL cli_slurm_chain)
+    set(timeout 900)  # about 5 minutes: Slurm's time limits are whole minutes
+  endif()
+  gen4d_cli_test(${script} TIMEOUT ${timeout})
+  if(TEST ${script})
+    set_tests_properties(${script} PROPERTIES LABELS slurm SKIP_RETURN_CODE 77
+                                              RESOURCE_LOCK slurm_cluster)
+  endif()
+endforeach()
+gen4d_cli_test(cli_slurm_scripts TIMEOUT 120)
+if(TEST cli_slurm_scripts)
+  set_tests_properties(cli_slurm_scripts PROPERTIES LABELS slurm SKIP_RETURN_CODE 77)
+endif()
