@@ -9,6 +9,7 @@ GEN4D_BUILD="${GEN4D_BUILD:-$GEN4D_ROOT/build}"
 GEN4D_JOBS="${GEN4D_JOBS:-$(nproc)}"
 
 gen4d_build() {
+  # shellcheck disable=SC2086  # GEN4D_CMAKE_ARGS is a list of options, one argument each
   cmake -S "$GEN4D_ROOT" -B "$GEN4D_BUILD" -DCMAKE_BUILD_TYPE=Release ${GEN4D_CMAKE_ARGS:-}
   cmake --build "$GEN4D_BUILD" -j "$GEN4D_JOBS"
 }

@@ -17,7 +17,7 @@ sets=(--set simulation.end_time=0.15 --set output.frame_interval=0.05 --set doma
 "$mpiexec" -n 2 "$gen4d" run "$board" --out "$dir/full" "${sets[@]}" > "$dir/full.log" 2>&1 ||
   { echo "FAIL uninterrupted run"; cat "$dir/full.log"; exit 1; }
 
-GEN4D_TEST_SLOW_CHECKPOINT=3 "$mpiexec" -n 2 "$gen4d" run "$board" --out "$dir/cut" "${sets[@]}" \
+GEN4D_TEST_SLOW_CHECKPOINT=4 "$mpiexec" -n 2 "$gen4d" run "$board" --out "$dir/cut" "${sets[@]}" \
   > "$dir/cut.log" 2>&1 &
 launcher=$!
 victim=$(rank_pid "$launcher" 1)

@@ -2,10 +2,12 @@
 # Helpers of the cli_faults_*.sh tests (sourced).
 
 # rank_pid LAUNCHER_PID RANK: the pid of rank RANK among the processes mpiexec started (its
-# children, which carry OMPI_COMM_WORLD_RANK); waits up to 30 s for it, prints nothing if none.
+# children, which carry OMPI_COMM_WORLD_RANK); waits up to 30 s for it (while the launcher
+# runs), prints nothing if none.
 rank_pid() {
   local launcher=$1 rank=$2 child
   for _ in $(seq 1 300); do
+    kill -0 "$launcher" 2> /dev/null || return 0
     for child in $(pgrep -P "$launcher"); do
       if tr '\0' '\n' < "/proc/$child/environ" 2>/dev/null | grep -qx "OMPI_COMM_WORLD_RANK=$rank"; then
         echo "$child"

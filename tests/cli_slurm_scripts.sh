@@ -24,8 +24,10 @@ mapfile -t scripts < <(cd "$root" && {
   find jobs -type f \( -name '*.sh' -o -name '*.sbatch' -o -name '*.pbs' \) ! -path jobs/env.sh
   find tests -name 'cli_slurm_*.sh'
 } | sort)
-if (cd "$root" && shellcheck -x -P SCRIPTDIR "${scripts[@]}" > "$dir/shellcheck.txt" 2>&1 &&
-  shellcheck --shell=bash jobs/env.sh >> "$dir/shellcheck.txt" 2>&1); then
+sc=0
+(cd "$root" && shellcheck -x -P SCRIPTDIR "${scripts[@]}") > "$dir/shellcheck.txt" 2>&1 || sc=1
+(cd "$root" && shellcheck --shell=bash jobs/env.sh) >> "$dir/shellcheck.txt" 2>&1 || sc=1
+if [[ $sc -eq 0 ]]; then
   echo "shellcheck: ${#scripts[@]} scripts and jobs/env.sh clean"
 else
   cat "$dir/shellcheck.txt"

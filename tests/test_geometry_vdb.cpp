@@ -3,9 +3,12 @@
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/LevelSetSphere.h>
 
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "core/Error.hpp"
 #include "geometry/Shape.hpp"
@@ -110,4 +113,34 @@ TEST(GeometryVdb, BadFilesAndGridsNameTheProblem) {
   part.type = "vdb";
   part.file = text;
   expect_input_error([&] { g::make_shape({part}); }, {"not_a_vdb.vdb"});
+}
+
+TEST(GeometryVdb, CorruptNodeCountStopsAtTheEndOfTheFile) {
+  // A root node count of 4000 in a file cut short after the first child's origin. OpenVDB's
+  // reader allocates a 32^3 internal node per count without checking the stream (about 1 GB
+  // here, unbounded for larger counts; found by fuzz_vdb): the read must stop at the end.
+  openvdb::initialize();
+  auto sphere = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(
+      1.0f, openvdb::Vec3f(0, 0, 0), /*voxelSize=*/0.05f, /*halfWidth=*/3.0f);
+  sphere->setName("sphere");
+  const std::string path = asset_path("corrupt_count.vdb");
+  openvdb::io::File(path).write({sphere});
+  std::ifstream in(path, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // The root node's topology: background value, tile count (0), child count.
+  const float background = sphere->background();
+  std::string root(8, '\0');
+  std::memcpy(&root[0], &background, 4);
+  const std::size_t at = bytes.find(root);
+  ASSERT_NE(at, std::string::npos);
+  std::uint32_t children = 0;
+  std::memcpy(&children, bytes.data() + at + 8, 4);
+  ASSERT_GE(children, 1u);
+  ASSERT_LE(children, 8u);
+  const std::uint32_t corrupt = 4000;
+  std::memcpy(&bytes[at + 8], &corrupt, 4);
+  bytes.resize(at + 12 + 12 + 64);
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+  expect_input_error([&] { g::VdbLevelSet(path, "", 1.0, Vector3d::Zero()); },
+                     {"corrupt_count.vdb", "truncated or corrupt"});
 }

@@ -13,7 +13,6 @@
 #include <mpi.h>
 #include <petscsys.h>
 
-#include <csignal>
 #include <cstdio>
 #include <exception>
 #include <string>
@@ -22,6 +21,7 @@
 #include "core/Error.hpp"
 #include "core/Log.hpp"
 #include "core/ParallelFor.hpp"
+#include "parallel/Signals.hpp"
 #include "parallel/Watchdog.hpp"
 #ifdef GEN4D_WITH_TORCH
 #include "neural_train/Install.hpp"
@@ -36,9 +36,8 @@ int fail(int code, const std::string& msg, int rank) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  // A batch system's early SIGUSR1 ("checkpoint soon") must not kill the process before a
-  // run installs its handler (parallel/Signals.hpp); until then it is ignored.
-  std::signal(SIGUSR1, SIG_IGN);
+  // A batch system's early SIGUSR1 ("checkpoint soon") must not kill the process.
+  gen4d::signals::hold_usr1();
   int provided = 0;
   MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
   int rank = 0;

@@ -19,11 +19,13 @@ or malformed.
 The model (per step of each code, p ranks, the slowest rank):
   T(p) = T_compute(p) + T_comm(p)
   T_compute = local work / (fitted per-rank rate); local work from a 3D block decomposition
-  T_comm = sum over the code's exchanges of (messages x alpha + bytes / beta) x k
+  T_comm = sum over the code's exchanges of (messages x alpha + bytes / beta + o + g x bytes)
           + sum over its collectives of their latency (alpha_c log2 p, plus the bytes of the
             all-gathers, which grow with p)
-  with the message and byte counts taken from the code (see COUNTS below) and k a fitted factor
-  per exchange (packing, unpacking and waiting that the pure transport time leaves out).
+  with the message and byte counts taken from the code (see the counts below, checked against
+  a run by mpi_count.c) and o, g fitted on the 2-rank runs (software cost per exchange and per
+  byte: packing, unpacking and the waiting for the slowest rank). The projection is printed
+  with the fitted o, g and with the transport alone ("cluster_transport_only").
 """
 import csv
 import json
@@ -118,7 +120,6 @@ def load_json(path):
 
 
 TIMER_HEAD = re.compile(r"phase timers \(max over ranks, wall ([0-9.eE+-]+) s")
-TIMER_ROW = re.compile(r"^\S*\s*(?:\[[^\]]*\]\s*)*\s*([a-z0-9+_]+)\s+([0-9.eE+-]+) s\s+[0-9.]+ %")
 
 
 def gen4d_timers(path):
@@ -145,6 +146,48 @@ def gen4d_timers(path):
 # Collection
 
 
+def collect_run(r, code, path):
+    """One row of scaling.csv from a runs.tsv entry and its raw output."""
+    ranks, steps = int(r["ranks"]), int(r["steps"])
+    size = float(r["size"])
+    if code == "elastogen":
+        wall, ph = gen4d_timers(path)
+        names = ["stencil+svd", "subspace", "sweeps", "halo", "reduction"]
+        per = {n: ph.get(n, 0.0) / steps for n in names}
+        # The wall clock covers the steps and the last frame and checkpoint (in "io"); the
+        # timer table has millisecond resolution, so tiny runs fall back on the phases.
+        t = max(wall - ph.get("io", 0.0), sum(ph.get(n, 0.0) for n in names)) / steps
+        per["other"] = max(0.0, t - sum(per.values()))
+    elif code == "mpm":
+        js = load_json(path)
+        cases = [c for c in js.get("cases", []) if c.get("case") == "elastic_block"]
+        if not cases:
+            raise InputProblem(f"{path}: no elastic_block case")
+        c = cases[0]
+        steps = int(c["substeps"])
+        size = float(c["particles"])
+        per = {k: v / steps for k, v in c["phase_seconds"].items()}
+        t = c["seconds"] / steps
+        per["other"] = max(0.0, t - sum(per.values()))
+    elif code == "render":
+        js = load_json(path)
+        cases = [c for c in js.get("cases", []) if c.get("case") == "synthetic"]
+        if not cases:
+            raise InputProblem(f"{path}: no synthetic case")
+        c = cases[0]
+        per = dict(c["phases_s"])
+        t = c["frame_s"]
+        per["other"] = max(0.0, t - sum(per.values()))
+    else:
+        raise InputProblem(f"runs.tsv: unknown code '{code}'")
+    return {
+        "code": code, "kind": r["kind"], "ranks": ranks,
+        "oversubscribed": int(r["oversubscribed"]), "size": int(size), "unit": r["unit"],
+        "steps": steps, "time_per_step_s": t, "throughput_per_s": size / t,
+        "load1_start": float(r["load1"]), "load5_start": float(r["load5"]), "phases": per,
+    }
+
+
 def collect(out):
     runs = read_tsv(os.path.join(out, "runs.tsv"))
     rows = []
@@ -153,44 +196,10 @@ def collect(out):
         if code in ("mpi", "checkpoint"):
             continue
         path = os.path.join(out, "raw", r["file"])
-        ranks, steps = int(r["ranks"]), int(r["steps"])
-        size = float(r["size"])
-        if code == "elastogen":
-            wall, ph = gen4d_timers(path)
-            names = ["stencil+svd", "subspace", "sweeps", "halo", "reduction"]
-            per = {n: ph.get(n, 0.0) / steps for n in names}
-            # The wall clock covers the steps and the last frame and checkpoint (in "io"); the
-            # timer table has millisecond resolution, so tiny runs fall back on the phases.
-            t = max(wall - ph.get("io", 0.0), sum(ph.get(n, 0.0) for n in names)) / steps
-            per["other"] = max(0.0, t - sum(per.values()))
-        elif code == "mpm":
-            js = load_json(path)
-            cases = [c for c in js.get("cases", []) if c.get("case") == "elastic_block"]
-            if not cases:
-                raise InputProblem(f"{path}: no elastic_block case")
-            c = cases[0]
-            steps = int(c["substeps"])
-            size = float(c["particles"])
-            per = {k: v / steps for k, v in c["phase_seconds"].items()}
-            t = c["seconds"] / steps
-            per["other"] = max(0.0, t - sum(per.values()))
-        elif code == "render":
-            js = load_json(path)
-            cases = [c for c in js.get("cases", []) if c.get("case") == "synthetic"]
-            if not cases:
-                raise InputProblem(f"{path}: no synthetic case")
-            c = cases[0]
-            per = dict(c["phases_s"])
-            t = c["frame_s"]
-            per["other"] = max(0.0, t - sum(per.values()))
-        else:
-            raise InputProblem(f"runs.tsv: unknown code '{code}'")
-        rows.append({
-            "code": code, "kind": r["kind"], "ranks": ranks,
-            "oversubscribed": int(r["oversubscribed"]), "size": int(size), "unit": r["unit"],
-            "steps": steps, "time_per_step_s": t, "throughput_per_s": size / t,
-            "load1_start": float(r["load1"]), "load5_start": float(r["load5"]), "phases": per,
-        })
+        try:
+            rows.append(collect_run(r, code, path))
+        except (KeyError, TypeError, ValueError) as e:
+            raise InputProblem(f"{path}: malformed ({type(e).__name__}: {e})") from None
     for row in rows:
         base = [b for b in rows if b["code"] == row["code"] and b["kind"] == row["kind"]
                 and b["ranks"] == 1]
@@ -697,12 +706,13 @@ def plots(out, rows, mpi, proj):
     for ax, (code, kind) in zip(axes[0], sets):
         sel = sorted((r for r in rows if r["code"] == code and r["kind"] == kind),
                      key=lambda r: r["ranks"])
-        names = list(sel[0]["phases"].keys())
+        names = list(dict.fromkeys(n for r in sel for n in r["phases"]))
         bottom = np.zeros(len(sel))
         for i, name in enumerate(names):
             vals = np.array([r["phases"].get(name, 0.0) for r in sel])
             ax.bar(range(len(sel)), vals, bottom=bottom, label=name, color=f"C{i % 10}")
             bottom += vals
+        ax.set_ylim(0, 1.25 * max(bottom.max(), 1e-9))
         ax.set_xticks(range(len(sel)))
         ax.set_xticklabels([f"{r['ranks']}{'*' if r['oversubscribed'] else ''}" for r in sel])
         ax.set_xlabel("ranks (* oversubscribed)")

@@ -272,6 +272,7 @@ if [[ $checkpoint == 1 ]]; then
       "checkpoint_np${np}_every0.log" >> "$out/checkpoint_runs.tsv"
     bytes=$(stat -c %s "$file")
   done
+  [[ -n "${bytes:-}" ]] || die "--ranks: the checkpoint part needs a rank count <= $cores cores (or --no-checkpoint)"
   mib=$(( (bytes + 1048575) / 1048576 ))
   printf "mode\tbytes\tseconds\tload1\n" > "$out/dd.tsv"
   for mode in page_cache fdatasync; do

@@ -2,6 +2,7 @@
 #include "geometry/Shape.hpp"
 
 #include <fmt/format.h>
+#include <openvdb/io/Stream.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/Interpolation.h>
 
@@ -75,14 +76,21 @@ VdbLevelSet::VdbLevelSet(const std::string& path, const std::string& grid, doubl
   if (std::filesystem::is_directory(path, ec) || !std::ifstream(path, std::ios::binary))
     throw InputError(fmt::format("{}: cannot open VDB file", path));
   try {
-    openvdb::io::File file(path);
-    file.open(false);  // no delayed loading: the file may change after we return
-    const openvdb::GridPtrVecPtr metadata = file.readAllGridMetadata();
-    grid_name_ = choose_grid(path, grid, *metadata);
-    impl_->grid = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid(grid_name_));
-    file.close();
+    // Read as a stream that throws at the end of the file: OpenVDB's tree readers loop over
+    // the node counts a file declares without checking the stream, so a corrupt count in a
+    // file of a few bytes would allocate nodes without bound. No delayed loading: the file may
+    // change after we return.
+    std::ifstream in(path, std::ios::binary);
+    in.exceptions(std::ios::failbit | std::ios::badbit);
+    openvdb::io::Stream stream(in, /*delayLoad=*/false);
+    const openvdb::GridPtrVecPtr grids = stream.getGrids();
+    grid_name_ = choose_grid(path, grid, *grids);
+    impl_->grid =
+        openvdb::gridPtrCast<openvdb::FloatGrid>(openvdb::findGridByName(*grids, grid_name_));
   } catch (const openvdb::Exception& e) {
     throw InputError(fmt::format("{}: not a readable VDB file: {}", path, one_line(e.what())));
+  } catch (const std::ios_base::failure&) {
+    throw InputError(fmt::format("{}: not a readable VDB file: truncated or corrupt", path));
   }
   if (!impl_->grid) throw InputError(fmt::format("{}: grid '{}' unreadable", path, grid_name_));
   const openvdb::CoordBBox active = impl_->grid->evalActiveVoxelBoundingBox();

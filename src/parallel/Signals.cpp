@@ -21,6 +21,10 @@ void install() {
   std::signal(SIGXFSZ, SIG_IGN);
 }
 
+void hold_usr1() {
+  std::signal(SIGUSR1, on_signal);
+}
+
 int pending(MPI_Comm comm) {
   const int local = static_cast<int>(g_signal);
   int sig = 0;
