@@ -484,14 +484,14 @@ TEST(ParticleCheckpoint, FailedWritesLeaveNothingUnderTheFinalName) {
   ParticleCheckpointState state = make_state(4, mine);
   state.extras[""] = 1.0;
   expect_runtime_error([&] { write_particle_checkpoint(MPI_COMM_WORLD, out, state, 0); },
-                       ".checkpoint_00000004.h5.tmp: cannot create attribute ''");
+                       ".checkpoint_00000004.h5.tmp): cannot create attribute ''");
 
   // The temporary's name is taken (as by a crashed run's leftover folder).
   if (world_rank() == 0) fs::create_directories(out + "/.checkpoint_00000005.h5.tmp/x");
   MPI_Barrier(MPI_COMM_WORLD);
   expect_runtime_error(
       [&] { write_particle_checkpoint(MPI_COMM_WORLD, out, make_state(5, mine), 0); },
-      ".checkpoint_00000005.h5.tmp: cannot create the file");
+      ".checkpoint_00000005.h5.tmp): cannot create the file");
   if (world_rank() == 0) fs::remove_all(out + "/.checkpoint_00000005.h5.tmp");
   MPI_Barrier(MPI_COMM_WORLD);
   EXPECT_EQ(listing(out), std::vector<std::string>{});

@@ -1,6 +1,10 @@
 #include "parallel/Signals.hpp"
 
+#include <algorithm>
+#include <chrono>
 #include <csignal>
+#include <cstdlib>
+#include <thread>
 
 #include "parallel/Watchdog.hpp"
 
@@ -10,6 +14,17 @@ namespace {
 volatile std::sig_atomic_t g_signal = 0;
 extern "C" void on_signal(int sig) {
   g_signal = sig;
+}
+
+//! Test hook: GEN4D_TEST_STEP_SECONDS=S makes every step take at least S more seconds of
+//! wall time (a sleep, no compute), so that the batch-system tests can make a small deck
+//! outlast a one-minute time limit without loading the machine. Unset (the default): 0.
+double test_step_seconds() {
+  static const double seconds = [] {
+    const char* text = std::getenv("GEN4D_TEST_STEP_SECONDS");
+    return text != nullptr ? std::max(0.0, std::atof(text)) : 0.0;
+  }();
+  return seconds;
 }
 }  // namespace
 
@@ -26,6 +41,8 @@ void hold_usr1() {
 }
 
 int pending(MPI_Comm comm) {
+  if (test_step_seconds() > 0)
+    std::this_thread::sleep_for(std::chrono::duration<double>(test_step_seconds()));
   const int local = static_cast<int>(g_signal);
   int sig = 0;
   // Every step passes here: the watchdog's clock restarts, and a rank that waits here for

@@ -14,7 +14,8 @@ void install();
 //! never look.
 void hold_usr1();
 //! The signal any rank of `comm` received since the last call (0 if none), on every rank.
-//! Collective; also the watchdog's progress mark (parallel/Watchdog.hpp).
+//! Collective; also the watchdog's progress mark (parallel/Watchdog.hpp). With the test hook
+//! GEN4D_TEST_STEP_SECONDS=S set, each call first sleeps S seconds (slow steps, no load).
 int pending(MPI_Comm comm);
 
 }  // namespace gen4d::signals

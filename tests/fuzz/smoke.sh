@@ -11,10 +11,8 @@ jobs="${3:-2}"
 shift $(( $# < 3 ? $# : 3 ))
 targets=("$@")
 if (( ${#targets[@]} == 0 )); then
-  # fuzz_vdb only when named: OpenVDB allocates and fills strings of the lengths a file declares
-  # (up to 4 GiB, seconds to tens of seconds) before it finds the file too short, so its smoke
-  # run reports OpenVDB's timeouts within 30 s; gen4d's VDB reader is covered by GeometryVdb.
-  targets=(fuzz_deck fuzz_mesh fuzz_ply fuzz_physgaussian_json fuzz_recording fuzz_checkpoint)
+  targets=(fuzz_deck fuzz_mesh fuzz_ply fuzz_physgaussian_json fuzz_recording fuzz_checkpoint
+           fuzz_vdb)
 fi
 declare -A dict=([fuzz_deck]=deck [fuzz_mesh]=mesh [fuzz_ply]=ply
                  [fuzz_physgaussian_json]=physgaussian_json [fuzz_recording]=recording)
@@ -37,7 +35,11 @@ run_one() {
   local malloc_mb=1024 rss_mb=2048
   # OpenVDB sizes a metadata string by the 32-bit length the file declares before it reads the
   # bytes (MetaMap::readMeta): up to 4 GiB, freed when the read fails at the end of the file.
-  if [[ "$t" == fuzz_vdb ]]; then malloc_mb=4096 rss_mb=6144; fi
+  # fuzz_vdb runs in fork mode with OpenVDB's out-of-memory and timeout inputs counted, not
+  # fatal: OpenVDB allocates and fills strings of the lengths a file declares (up to 4 GiB,
+  # seconds to tens of seconds) before it finds the file too short (a known OpenVDB limit, not
+  # boundable from gen4d without its own VDB parser). Crashes and sanitizer reports still fail.
+  if [[ "$t" == fuzz_vdb ]]; then extra+=(-fork=1 -ignore_ooms=1 -ignore_timeouts=1); fi
   ASAN_OPTIONS="$options" "$build/tests/fuzz/$t" "$build/fuzz/corpus/$t" -max_total_time="$seconds" -timeout=10 \
     -rss_limit_mb="$rss_mb" -malloc_limit_mb="$malloc_mb" -print_final_stats=1 \
     -artifact_prefix="$build/fuzz/artifacts/$t-" "${extra[@]}" >"$build/fuzz/logs/$t.log" 2>&1
@@ -49,6 +51,8 @@ finish() {
   local t="$1" pid="$2" line
   if wait "$pid"; then
     line="$(grep -E '^#[0-9]+[[:space:]]+DONE' "$build/fuzz/logs/$t.log" | tail -n 1 || true)"
+    # Fork mode (fuzz_vdb) prints its own progress lines instead of DONE.
+    [[ -n "$line" ]] || line="$(grep -E '^#[0-9]+: cov' "$build/fuzz/logs/$t.log" | tail -n 1 || true)"
     echo "fuzz $t: ok, $(echo "$line" | sed -E 's/^#([0-9]+)[[:space:]]+DONE[[:space:]]+/\1 runs, /')"
   else
     echo "fuzz $t: FAILED (log $build/fuzz/logs/$t.log)"
