@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The long checks CI leaves out to stay within its time: the tests labelled `nightly` (the
-# small blind and library diagnoses, each several minutes on 2 cores), then the hardening step
-# with long fuzz runs (FUZZ_SECONDS per target, default 1800, one at a time). Run it nightly,
-# or before a release; it installs and builds like run-tests.sh.
+# small blind and library diagnoses, the ElastoGen frequency test and the 1-rank runs of two
+# validation twins: tests/CMakeLists.txt), then the hardening step with long fuzz runs
+# (FUZZ_SECONDS per target, default 1800, one at a time). Run it nightly or before a release;
+# it installs and builds like run-tests.sh.
 #   jobs/local/run-nightly.sh
 set -euo pipefail
 # shellcheck source=SCRIPTDIR/../env.sh
