@@ -46,8 +46,11 @@ check too-few-samples 2 "at least 7 samples" -- run --recording short.csv --out 
 check unknown-effect 2 "unknown effect 'friction'" -- run --recording short.csv --out o6 --effects friction
 check bad-holdout 2 "holdout" -- run --recording short.csv --out o7 --holdout 0.9
 check empty-effects 2 "--effects ',,' names no effect" -- run --recording short.csv --out o9 --effects ,,
+check all-not-alone 2 "'all' names every effect, so it stands alone" -- run --recording short.csv --out o10 --effects all,damping
+# 'all' passes the effect names' check (the recording then fails on its length, after it).
+check all-effects 2 "at least 7 samples" -- run --recording short.csv --out o11 --effects all --hold-poisson
 check missing-recording 2 "recording" -- run --out o8
-for d in o1 o2 o3 o4 o5 o6 o7 o8 o9; do
+for d in o1 o2 o3 o4 o5 o6 o7 o8 o9 o10 o11; do
   if [ -e "$d/report.json" ]; then echo "FAIL: $d/report.json written for bad input"; fail=1; fi
 done
 exit $fail

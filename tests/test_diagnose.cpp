@@ -1612,6 +1612,28 @@ end = 0.0
                                    "\\[([-0-9.e+]+).*\"modal_damping_ratio\": \\[([-0-9.e+]+)")));
   const double zeta1 = 3.0 / (2 * 2 * std::acos(-1.0) * std::stod(mt[1].str()));
   EXPECT_NEAR(std::stod(mt[2].str()) / zeta1, 1.0, 0.05);
+  // A thin strip (150 to 1): bending fixes E t^2 / rho, and the report says which thickness
+  // the deck's E would need for the calibrated frequencies.
+  ASSERT_TRUE(std::regex_search(js, mt, std::regex("\"youngs_modulus\": ([-0-9.e+]+)")));
+  const double E = std::stod(mt[1].str());
+  ASSERT_TRUE(std::regex_search(
+      js, mt,
+      std::regex("\"thin_body\": \\{\"identified\": \"youngs_modulus \\* thickness\\^2 / "
+                 "density\", \"thickness\": ([-0-9.e+]+), \"length\": ([-0-9.e+]+), "
+                 "\"thickness_at_nominal_youngs_modulus\": ([-0-9.e+]+)")))
+      << js.substr(0, 800);
+  EXPECT_DOUBLE_EQ(std::stod(mt[1].str()), 0.002);
+  EXPECT_DOUBLE_EQ(std::stod(mt[2].str()), 0.3);
+  EXPECT_NEAR(std::stod(mt[3].str()), 0.002 * std::sqrt(E / 7.0e10), 1e-10);  // 9 digits
+  // An accelerometer-only recording: every rms and noise in m/s^2, none NaN; a mean
+  // acceleration is no static offset.
+  const std::string md = file_text(opt.out_dir + "/report.md");
+  EXPECT_NE(md.find("| fitted data rms (m/s^2) | held-out rms (m/s^2) |"), std::string::npos);
+  EXPECT_NE(md.find("The body is thin (0.3 m along x, 0.002 m along z: 150 to 1)"),
+            std::string::npos);
+  EXPECT_EQ(md.find("nan"), std::string::npos) << md;
+  EXPECT_EQ(md.find(" m rms"), std::string::npos) << md;
+  EXPECT_NE(md.find("- [ ] static_offset"), std::string::npos);
 }
 
 TEST(DiagnoseEndToEnd, SaysMissingPhysicsNotIdentifiedWhenTheLibraryLacksIt) {

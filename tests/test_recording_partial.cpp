@@ -388,7 +388,7 @@ struct Calibrated {
   DiagnoseOptions opt;
   std::unique_ptr<State> s;
   Calibrated(const Recording& rec, const std::string& name,
-             const std::vector<std::string>& unmeasured = {}) {
+             const std::vector<std::string>& unmeasured = {}, bool hold_poisson = false) {
     int size = 1;
     MPI_Comm_size(MPI_COMM_WORLD, &size);
     const std::string dir = "recording_partial_np" + std::to_string(size) + "/" + name;
@@ -398,6 +398,7 @@ struct Calibrated {
     opt.effects = {"damping"};
     opt.refinement_check = false;
     opt.unmeasured = unmeasured;
+    opt.hold_poisson = hold_poisson;
     s = std::make_unique<State>(MPI_COMM_WORLD, cfg, opt);
     observe(*s);
     calibrate(*s);
@@ -449,6 +450,25 @@ TEST(PartialRecordingDiagnosis, AnAxisNotMeasuredCalibratesTheSameE) {
   EXPECT_EQ(z.s->D.youngs_modulus, Eb);
   EXPECT_EQ(z.s->obs.y, b.s->obs.y);
   EXPECT_EQ(z.s->D.noise_position, b.s->D.noise_position);
+}
+
+TEST(PartialRecordingDiagnosis, HoldPoissonFitsEAlone) {
+  // One marker's y alone (the bending direction under gravity and the pulse): one series sees
+  // no lateral contraction, which the report says; --hold-poisson keeps nu at the deck's and
+  // fits E alone (the truth has the deck's nu).
+  const Recording full = truth_recording();
+  Recording one = full;
+  one.channels.resize(1);
+  for (Channel& c : one.channels) c.measured.assign(c.t.size(), {false, true, false});
+  const Calibrated a(full, "all_series"), b(one, "one_series");
+  const Calibrated h(one, "one_series_held", {}, true);
+  EXPECT_FALSE(a.s->D.one_series);
+  EXPECT_TRUE(b.s->D.one_series);
+  EXPECT_FALSE(b.s->D.poisson_held);
+  EXPECT_TRUE(h.s->D.poisson_held);
+  EXPECT_EQ(h.s->D.poisson_ratio, h.s->nominal.poisson_ratio);
+  EXPECT_EQ(h.s->calibrated.poisson_ratio, h.s->nominal.poisson_ratio);
+  EXPECT_NEAR(h.s->D.youngs_modulus / kTrueE, 1.0, 0.01);
 }
 
 TEST(PartialRecordingDiagnosis, ARecordingThatStartsMidMotion) {

@@ -482,12 +482,15 @@ int dispatch(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   diag->add_option("--out,-o", dg.out_dir, "Output directory for report.json, report.md, PNGs")
       ->required();
-  CLI::Option* dg_effects_opt = diag->add_option(
-      "--effects", dg_effects, "Comma-separated candidate effects (default: all of " + [] {
-        std::string s;
-        for (const auto& n : diagnose::effect_names()) s += (s.empty() ? "" : ",") + n;
-        return s;
-      }() + ")");
+  CLI::Option* dg_effects_opt = diag->add_option("--effects", dg_effects, [] {
+    std::string in, out;
+    for (const auto& e : diagnose::effect_library()) {
+      std::string& list = e->in_default_library() ? in : out;
+      list += (list.empty() ? "" : ",") + e->name();
+    }
+    return "Comma-separated candidate effects, or 'all' (default: " + in +
+           "; tried only when named or with 'all': " + out + ")";
+  }());
   diag->add_option("--holdout", dg.holdout,
                    "Fraction of time blocks and of markers held out for model selection")
       ->check(CLI::Range(0.0, 0.5));
@@ -509,6 +512,10 @@ int dispatch(int argc, char** argv) {
                    "backwards: every prediction is filtered alike (4th-order Butterworth, zero "
                    "phase)")
       ->check(CLI::PositiveNumber);
+  diag->add_flag("--hold-poisson", dg.hold_poisson,
+                 "Calibrate E alone, nu held at the deck's value (a known nu, or a recording "
+                 "that cannot see it: one axis of one sensor, where a fitted nu only trades "
+                 "with E)");
   diag->add_option("--set,-s", dg_sets, "Override a deck key, e.g. --set simulation.dt=0.001")
       ->take_all();
 
@@ -543,6 +550,10 @@ int dispatch(int argc, char** argv) {
     if (dg_effects_opt->count() > 0 && dg.effects.empty())
       throw InputError("command line: --effects '" + dg_effects +
                        "' names no effect (a comma-separated list of library effects)");
+    if (dg.effects.size() > 1 &&
+        std::find(dg.effects.begin(), dg.effects.end(), "all") != dg.effects.end())
+      throw InputError("command line: --effects '" + dg_effects +
+                       "': 'all' names every effect, so it stands alone");
     dg.refinement_check = !dg_no_refinement;
     std::stringstream us(dg_unmeasured);
     const auto& columns = diagnose::value_column_names();

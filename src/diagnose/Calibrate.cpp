@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
+#include <utility>
 
 #include "core/Log.hpp"
 #include "diagnose/Pipeline.hpp"
@@ -15,7 +17,7 @@ namespace gen4d::diagnose {
 Physics base_physics(const State& s, const std::vector<double>& z) {
   Physics p = s.nominal;
   p.youngs_modulus = std::exp(z[0]);
-  p.poisson_ratio = z[1];
+  p.poisson_ratio = s.hold_poisson ? s.nominal.poisson_ratio : z[1];
   apply_release(s, {}, 0, p);
   return p;
 }
@@ -47,6 +49,14 @@ double match_frequency(const State& s, double zE, double w_target, const Predict
 }
 
 namespace {
+
+//! The number of measured series (a channel's component) among the fitted values.
+std::size_t measured_series(const Observations& obs) {
+  std::set<std::pair<int, int>> series;
+  for (std::size_t i = 0; i < obs.size(); ++i)
+    if (obs.train[i]) series.insert({obs.channel[i], obs.component[i]});
+  return series.size();
+}
 
 //! Whether every channel of the recording is an accelerometer.
 bool accelerometers_only(const Observations& obs) {
@@ -101,6 +111,7 @@ void recalibrate_noise(State& s) {
   Observations& obs = s.obs;
   LsqResult& base = s.base;
   D.noise_recording_position = D.noise_position;
+  D.noise_recording_acceleration = D.noise_acceleration;
   if (base.pred.ok) {
     double res_pos = 0, res_acc = 0;
     residual_noise(obs, base.pred, res_pos, res_acc);
@@ -163,6 +174,12 @@ void calibrate(State& s) {
   LsqProblem& pb = s.pb;
   pb.lo = {to_z(base_specs[0], base_specs[0].lo), base_specs[1].lo};
   pb.hi = {to_z(base_specs[0], base_specs[0].hi), base_specs[1].hi};
+  D.one_series = measured_series(obs) < 2;
+  s.hold_poisson = D.poisson_held = s.opt.hold_poisson;
+  if (s.hold_poisson) {
+    pb.lo[1] = pb.hi[1] = nominal.poisson_ratio;  // its runs are the memo's: no cost
+    log::info("nu held at the deck's {:.3g} (--hold-poisson)", nominal.poisson_ratio);
+  }
   pb.step = {1e-3, 1e-2};  // nu moves a beam little: a larger step keeps
                            // Newton's tolerance out
   pb.physics = [&s](const std::vector<double>& z) {

@@ -17,16 +17,19 @@ namespace gen4d::diagnose {
 struct DiagnoseOptions {
   std::vector<std::string> recordings;  //!< CSV / HDF5 files (positions, accelerometers)
   std::string out_dir;
-  std::vector<std::string> effects;  //!< candidates; empty: the whole library
-  double holdout = 0.25;             //!< fraction of time blocks and markers held out
-  int refit = 3;                     //!< candidates refitted after screening
-  int max_iterations = 10;           //!< TAO iterations per fit
+  //! Candidates; empty: the default library; {"all"}: every effect the model represents.
+  std::vector<std::string> effects;
+  double holdout = 0.25;    //!< fraction of time blocks and markers held out
+  int refit = 3;            //!< candidates refitted after screening
+  int max_iterations = 10;  //!< TAO iterations per fit
   //! Measure the model's spatial discretisation error (h/2 rerun) before keeping an effect.
   bool refinement_check = true;
   //! Value columns (x, y, z, ax, ay, az) not measured in any recording file (ReadOptions).
   std::vector<std::string> unmeasured;
   //! The recording's zero-phase low-pass cutoff (Hz; 0: none), applied to the predictions alike.
   double lowpass_hz = 0;
+  //! Fit E alone, nu held at the deck's value (a known nu; a recording that cannot see it).
+  bool hold_poisson = false;
 };
 
 struct Channel;

@@ -25,7 +25,6 @@ struct CheckLevel {
   Observations fobs;
   std::vector<char> all_in, scored_in;
   double n_scored = 0, n_in = 0;
-  bool any_position = false;
   std::size_t channels = 0;
   std::string skipped;  //!< why the level cannot be used
 };
@@ -67,7 +66,6 @@ CheckLevel check_level(const Config& cfg, double factor, const Observations& obs
     const auto c = static_cast<std::size_t>(obs.channel[i]);
     L.all_in[i] = usable[c];
     L.scored_in[i] = usable[c] && scored[i];
-    L.any_position = L.any_position || (L.scored_in[i] && !obs.requests[c].acceleration);
   }
   L.n_scored = static_cast<double>(std::count(scored.begin(), scored.end(), 1));
   L.n_in = static_cast<double>(std::count(L.scored_in.begin(), L.scored_in.end(), 1));
@@ -91,7 +89,7 @@ void measure_closest(const CheckLevel& L, const std::vector<Physics>& tried,
       scale * scale * weighted_residual(L.fobs, got[best], L.scored_in).squaredNorm();
   R.chi2 = L.n_in > 0 ? chi2 * L.n_scored / L.n_in : 0.0;
   R.noise_sd = L.n_scored > 0 ? std::sqrt(R.chi2 / L.n_scored) : 0.0;
-  R.rms = L.any_position ? scale * rms(L.fobs, got[best], L.scored_in) : std::nan("");
+  R.rms = scale * rms(L.fobs, got[best], L.scored_in);  // m, or m/s^2 without markers
 }
 
 //! An evaluator's runs, their seconds and their failures, added to a check's cost.
@@ -255,6 +253,7 @@ MisfitBudget misfit_budget(const Observations& obs, const Prediction& base,
   if (!base.ok) return B;
   double res_pos = 0, res_acc = 0;
   residual_noise(obs, base, res_pos, res_acc);
+  double noise_sd_acceleration = 0;  // reported where there are no markers (rms()'s units)
   for (std::size_t i = 0; i < obs.size(); ++i) {
     if (!scored[i]) continue;
     const double r = (obs.y[i] - base.y[i]) / obs.sigma[i];
@@ -266,8 +265,12 @@ MisfitBudget misfit_budget(const Observations& obs, const Prediction& base,
         obs.requests[static_cast<std::size_t>(obs.channel[i])].acceleration ? res_acc : res_pos;
     const double s = std::isfinite(est) ? std::min(1.0, est / obs.sigma[i]) : 1.0;
     B.noise_chi2 += s * s;
-    if (est == res_pos) B.noise_sd = s * obs.sigma[i];
+    if (est == res_pos)
+      B.noise_sd = s * obs.sigma[i];
+    else
+      noise_sd_acceleration = s * obs.sigma[i];
   }
+  if (B.noise_sd == 0) B.noise_sd = noise_sd_acceleration;
   // On held-out values the baseline's misfit is |n + b0|^2 (noise n, its systematic error b0) and
   // an effect's |n + b1|^2 >= |n|^2 - (n.u)^2 (u = b1 / |b1|, fixed by the training data, so n.u is
   // one noise sd at most in distribution): an effect explains at most the misfit less |n|^2, plus 9

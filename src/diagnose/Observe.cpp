@@ -119,9 +119,10 @@ void open_library(State& s) {
   const ForwardModel& model = *s.model;
   Diagnosis& D = s.D;
   std::vector<const Effect*>& library = s.library;
-  if (s.opt.effects.empty()) {
+  const bool all = s.opt.effects.size() == 1 && s.opt.effects[0] == "all";
+  if (s.opt.effects.empty() || all) {
     for (const auto& e : effect_library()) {
-      if (!e->in_default_library()) continue;  // only when --effects names it
+      if (!all && !e->in_default_library()) continue;  // only when --effects names it
       if (model.models(e->name(), ""))
         library.push_back(e.get());
       else
@@ -174,6 +175,8 @@ void read_observations(State& s) {
             s.opt.lowpass_hz, 0.5 / span, id_column(c.kind), c.id, c.file));
     }
   const Observations& obs = s.obs;
+  D.accelerations_only = std::all_of(obs.requests.begin(), obs.requests.end(),
+                                     [](const ChannelRequest& r) { return r.acceleration; });
   s.ev = std::make_unique<Evaluator>(s.comm, model, s.obs);
   long ntrain = 0;
   for (char c : obs.train) ntrain += c;

@@ -19,6 +19,21 @@
 
 namespace gen4d::diagnose {
 
+ThinBody thin_body(const Diagnosis& d) {
+  ThinBody b;
+  for (int a = 0; a < 3; ++a) {
+    const double e = d.body.hi[a] - d.body.lo[a];
+    if (e > d.body.hi[b.long_axis] - d.body.lo[b.long_axis]) b.long_axis = a;
+    if (e < d.body.hi[b.thin_axis] - d.body.lo[b.thin_axis]) b.thin_axis = a;
+  }
+  b.length = d.body.hi[b.long_axis] - d.body.lo[b.long_axis];
+  b.thickness = d.body.hi[b.thin_axis] - d.body.lo[b.thin_axis];
+  b.thin = b.thickness > 0 && b.length >= kThinAspect * b.thickness && d.youngs_nominal > 0 &&
+           d.youngs_modulus > 0;
+  if (b.thin) b.equivalent_thickness = b.thickness * std::sqrt(d.youngs_modulus / d.youngs_nominal);
+  return b;
+}
+
 namespace {
 
 std::string jnum(double v) {
@@ -82,10 +97,16 @@ void json_result(JsonObject& j, const Diagnosis& d) {
   j.kv("baseline_parameters",
        fmt::format("{{\"youngs_modulus\": {}, \"poisson_ratio\": {}, \"density\": {}, "
                    "\"youngs_modulus_over_density\": {}, \"nominal_youngs_modulus\": {}, "
-                   "\"nominal_poisson_ratio\": {}, \"density_calibrated\": false}}",
+                   "\"nominal_poisson_ratio\": {}, \"poisson_ratio_held\": {}, "
+                   "\"density_calibrated\": false}}",
                    jnum(d.youngs_modulus), jnum(d.poisson_ratio), jnum(d.density),
                    jnum(d.youngs_modulus / d.density), jnum(d.youngs_nominal),
-                   jnum(d.poisson_nominal)));
+                   jnum(d.poisson_nominal), d.poisson_held ? "true" : "false"));
+  if (const ThinBody b = thin_body(d); b.thin)
+    j.kv("thin_body", fmt::format("{{\"identified\": \"youngs_modulus * thickness^2 / density\", "
+                                  "\"thickness\": {}, \"length\": {}, "
+                                  "\"thickness_at_nominal_youngs_modulus\": {}}}",
+                                  jnum(b.thickness), jnum(b.length), jnum(b.equivalent_thickness)));
   if (!d.release.empty())
     j.kv("release_state",
          fmt::format("{{\"preload_scale\": {}, \"time_offset\": {}, \"release_duration\": {}}}",
@@ -304,10 +325,10 @@ void markdown_verdict(std::ostringstream& m, const Diagnosis& d) {
       if (model_error_dominates(d))
         m << fmt::format(
             "These values are effective ones of the model's {0}: the discretisation check "
-            "puts the {0}' own error {1}{2:.3g} noise sd rms ({3:.3g} m), more than {4:g} "
+            "puts the {0}' own error {1}{2:.3g} noise sd rms ({3:.3g} {5}), more than {4:g} "
             "times the noise. Finer {0} (domain.voxel_size) would measure them.\n\n",
             cells, d.refinement.upper_bound ? "at most " : "at ", d.refinement.noise_sd,
-            d.refinement.rms, kEffectiveAboveNoise);
+            d.refinement.rms, kEffectiveAboveNoise, value_unit(d));
       const IntervalBasis& ib = d.intervals;
       if (ib.from != "noise") {
         std::string parts;
@@ -354,23 +375,44 @@ void markdown_verdict(std::ostringstream& m, const Diagnosis& d) {
 void markdown_fit(std::ostringstream& m, const Diagnosis& d) {
   const bool mpm = d.model == "mpm";
   const char* cells = d.model == "mpm" ? "cells" : "voxels";
-  m << "## Fit\n\n| | fitted data rms (m) | held-out rms (m) |\n|---|---|---|\n";
+  const char* unit = value_unit(d);
+  m << fmt::format("## Fit\n\n| | fitted data rms ({0}) | held-out rms ({0}) |\n|---|---|---|\n",
+                   unit);
   m << fmt::format("| nominal deck | {:.4g} | {:.4g} |\n", d.rms_nominal, d.heldout_rms_nominal);
   m << fmt::format("| calibrated baseline | {:.4g} | {:.4g} |\n", d.rms_before,
                    d.heldout_rms_before);
   m << fmt::format("| with the selected effect | {:.4g} | {:.4g} |\n\n", d.rms_after,
                    d.heldout_rms_after);
   m << fmt::format(
-      "Noise estimate: {:.3g} m (local cubic fits over 7 samples, the lower of the recording's, "
-      "{:.3g} m, and the calibrated baseline's residual's). Calibrated E = {:.4g} Pa "
-      "(deck {:.4g}), nu = {:.3f} (deck {:.3f}); density kept at {:g} kg/m^3, so E/rho = {:.4g} "
+      "Noise estimate: {:.3g} {} (local cubic fits over 7 samples, the lower of the recording's, "
+      "{:.3g} {}, and the calibrated baseline's residual's). Calibrated E = {:.4g} Pa "
+      "(deck {:.4g}), nu = {:.3f} (deck {:.3f}{}); density kept at {:g} kg/m^3, so E/rho = {:.4g} "
       "m^2/s^2 is what the data fix. These are effective values of the {}.\n\n",
-      d.noise_position, d.noise_recording_position, d.youngs_modulus, d.youngs_nominal,
-      d.poisson_ratio, d.poisson_nominal, d.density, d.youngs_modulus / d.density,
+      value_noise(d), unit,
+      d.accelerations_only ? d.noise_recording_acceleration : d.noise_recording_position, unit,
+      d.youngs_modulus, d.youngs_nominal, d.poisson_ratio, d.poisson_nominal,
+      d.poisson_held ? ", held: --hold-poisson"
+      : d.one_series ? "; one measured series sees no lateral contraction, so nu trades with E "
+                       "here: --hold-poisson fits E alone"
+                     : "",
+      d.density, d.youngs_modulus / d.density,
       mpm ? "MPM model: a few cells to the thickness, whose particles' discretisation error E "
             "and nu absorb"
           : "voxel model: trilinear voxels a few to the thickness are stiffer in bending than "
             "the continuum, and E, nu absorb that");
+  if (const ThinBody b = thin_body(d); b.thin) {
+    const char* axis = "xyz";
+    m << fmt::format(
+        "The body is thin ({:.3g} m along {}, {:.3g} m along {}: {:.0f} to 1). Where its motion "
+        "is bending, its frequencies fix E t^2/rho (t: the thickness), not E: this recording "
+        "cannot tell E = {:.4g} Pa at the deck's t = {:.4g} m from the deck's E = {:.4g} Pa at "
+        "t = {:.4g} m ({:+.1f} %), nor from a support that gives in rotation. A measured "
+        "thickness, a static deflection under a known load or a sensor near the support "
+        "separates them.\n\n",
+        b.length, axis[b.long_axis], b.thickness, axis[b.thin_axis], b.length / b.thickness,
+        d.youngs_modulus, b.thickness, d.youngs_nominal, b.equivalent_thickness,
+        100 * (b.equivalent_thickness / b.thickness - 1));
+  }
   if (!d.release.empty())
     m << fmt::format(
         "Release state (fitted with E and nu, then held): the pre-load is {:.4g} times the "
@@ -391,14 +433,15 @@ void markdown_fit(std::ostringstream& m, const Diagnosis& d) {
   }
   if (std::isfinite(d.noise_fitted_position) || std::isfinite(d.noise_fitted_acceleration))
     m << fmt::format(
-        "Noise on the fitted model's residual (the same local cubics): {} m{}. The weights "
+        "Noise on the fitted model's residual (the same local cubics): {}{}. The weights "
         "above were fixed before any effect was fitted; this is the better estimate where an "
         "effect was missing.\n\n",
-        std::isfinite(d.noise_fitted_position) ? fmt::format("{:.3g}", d.noise_fitted_position)
-                                               : std::string("-"),
+        std::isfinite(d.noise_fitted_position) ? fmt::format("{:.3g} m", d.noise_fitted_position)
+                                               : std::string(d.accelerations_only ? "" : "- m"),
         std::isfinite(d.noise_fitted_acceleration)
-            ? fmt::format(", accelerations {:.3g} m/s^2 (the weights': {:.3g})",
-                          d.noise_fitted_acceleration, d.noise_acceleration)
+            ? fmt::format("{}accelerations {:.3g} m/s^2 (the weights': {:.3g})",
+                          d.accelerations_only ? "" : ", ", d.noise_fitted_acceleration,
+                          d.noise_acceleration)
             : std::string());
   m << fmt::format(
       "Numerical dissipation check: rerunning at dt/2 changes the late-time amplitude by {:.3g} "
@@ -431,32 +474,32 @@ void markdown_fit(std::ostringstream& m, const Diagnosis& d) {
     m << fmt::format(
         "Discretisation check: the calibrated baseline rerun on {0} of {1:g} m ({2} {0}, E "
         "at the h {0}' rest frequency, {3:.5g} Pa) puts the error of the model's own {0} "
-        "at most {4:.3g} m rms ({5:.3g} noise sd; the whole h-to-2h difference: the two-grid "
+        "at most {4:.3g} {7} rms ({5:.3g} noise sd; the whole h-to-2h difference: the two-grid "
         "convergence index with safety factor 3); every effect kept explains more held-out "
         "chi-square than that ({6:.4g}), so no h/2 run was needed.\n\n",
         cells, d.refinement.voxel_size, d.refinement.voxels, d.refinement.youngs_modulus,
-        d.refinement.rms, d.refinement.noise_sd, d.refinement.chi2);
+        d.refinement.rms, d.refinement.noise_sd, d.refinement.chi2, unit);
   else if (d.refinement.done)
     m << fmt::format(
         "Discretisation check: the calibrated baseline rerun on {} of {:g} m ({} {}, E "
-        "{} {:.5g} Pa) puts the error of the model's own {} {}{:.3g} m rms ({:.3g} "
+        "{} {:.5g} Pa) puts the error of the model's own {} {}{:.3g} {} rms ({:.3g} "
         "noise sd; 4/3 of the h-to-h/2 difference); an effect is kept only when it explains "
         "more held-out chi-square than that ({:.4g}){}.\n\n",
         cells, d.refinement.voxel_size, d.refinement.voxels, cells,
         d.refinement.upper_bound ? (mpm ? "as calibrated," : "at the h voxels' rest frequency,")
                                  : "refitted to",
         d.refinement.youngs_modulus, cells, d.refinement.upper_bound ? "at most " : "at ",
-        d.refinement.rms, d.refinement.noise_sd, d.refinement.chi2,
+        d.refinement.rms, unit, d.refinement.noise_sd, d.refinement.chi2,
         d.refinement.upper_bound ? "; this bound already decides, so E was not refitted" : "");
   else if (!d.refinement.skipped.empty())
     m << "Discretisation check not done: " << d.refinement.skipped << ".\n\n";
   if (d.budget.evaluated)
     m << fmt::format(
         "Misfit budget: the calibrated baseline's held-out chi-square is {:.4g}, of which the "
-        "noise accounts for about {:.4g} (sd {:.3g} m, estimated on its residual); a missing "
+        "noise accounts for about {:.4g} (sd {:.3g} {}, estimated on its residual); a missing "
         "effect could explain at most {:.4g} (the noise counted at half, with 3-sd margins){}."
         "\n\n",
-        d.budget.scored_chi2, d.budget.noise_chi2, d.budget.noise_sd, d.budget.bound,
+        d.budget.scored_chi2, d.budget.noise_chi2, d.budget.noise_sd, unit, d.budget.bound,
         d.budget.exhausted
             ? fmt::format(", which is not more than the error of the model's own voxels ({:.4g}): "
                           "no effect could be kept, and none was refitted",
@@ -497,8 +540,10 @@ void markdown_where(std::ostringstream& m, const Diagnosis& d) {
 
 //! report.md's candidates, the rules, the cost.
 void markdown_candidates(std::ostringstream& m, const Diagnosis& d) {
-  m << "\n## Candidates\n\n| effect | screening chi2 drop | refit chi2 | dBIC | held-out rms "
-       "(m) | selected by the rules |\n|---|---|---|---|---|---|\n";
+  m << fmt::format(
+      "\n## Candidates\n\n| effect | screening chi2 drop | refit chi2 | dBIC | held-out rms "
+      "({}) | selected by the rules |\n|---|---|---|---|---|---|\n",
+      value_unit(d));
   for (const auto& c : d.candidates) {
     if (c.fitted)
       m << fmt::format("| {}{} | {:.4g} | {:.4g} | {:.1f} | {:.4g} | {} |\n", c.effect,
@@ -648,7 +693,7 @@ void plots(const std::string& dir, const Diagnosis& d, const Observations& obs) 
       io::ScatterMap& m = maps.emplace_back(body_map(
           d, a, b,
           k == 0 ? "Marker rms error, calibrated baseline" : "Marker rms error, selected model",
-          "rms (m)"));
+          fmt::format("rms ({})", value_unit(d))));
       for (std::size_t c = 0; c < d.channel_ids.size(); ++c) {
         m.x.push_back(d.channel_X[c][static_cast<std::size_t>(a)]);
         m.y.push_back(d.channel_X[c][static_cast<std::size_t>(b)]);

@@ -163,6 +163,10 @@ struct Diagnosis {
   std::vector<ParamEstimate> effect_parameters;
   double youngs_modulus = 0, poisson_ratio = 0, density = 0;
   double youngs_nominal = 0, poisson_nominal = 0;
+  bool poisson_held = false;  //!< nu held at the deck's (--hold-poisson)
+  //! The fitted values hold one measured series (one axis of one sensor): it sees no lateral
+  //! contraction, so a fitted nu trades with E (a thin strip's plate stiffness E / (1 - nu^2)).
+  bool one_series = false;
   std::vector<ParamEstimate> baseline_ci;
   //! The release state fitted with E (a deck with pre-loads): preload_scale, time_offset (s).
   std::vector<ParamEstimate> release;
@@ -196,7 +200,7 @@ struct Diagnosis {
   double noise_position = 0, noise_acceleration = 0;
   //! The recording's own noise estimate of the markers (local cubics), before the calibrated
   //! residual's.
-  double noise_recording_position = 0;
+  double noise_recording_position = 0, noise_recording_acceleration = 0;
   //! The same estimate on the residual of the fitted model (the selected effect's refit, else
   //! the calibrated baseline): where an effect was missing, the calibrated residual still holds
   //! its motion, which the cubics count as noise (NaN where there are no such channels).
@@ -240,7 +244,31 @@ struct Diagnosis {
   std::vector<double> block_gain;
   Prediction baseline_pred, fitted_pred;
   BoxRegion body;
+  //! Every channel is an accelerometer: rms values and noise are accelerations (Fit's rms()).
+  bool accelerations_only = false;
 };
+
+//! A thin body's bending identifies E t^2 / rho, not E (t: its thinnest extent). Set
+//! (`thin`) when the body's bounding box is at least kThinAspect times longer than thick.
+struct ThinBody {
+  bool thin = false;
+  int long_axis = 0, thin_axis = 0;
+  double length = 0, thickness = 0;
+  //! The thickness at which the deck's E gives the calibrated E t^2 (same frequencies).
+  double equivalent_thickness = 0;
+};
+constexpr double kThinAspect = 20;
+ThinBody thin_body(const Diagnosis& d);
+
+//! The unit of the report's rms values and residuals: positions (m) when the recording has any
+//! marker, else accelerations (m/s^2), as rms() measures them.
+inline const char* value_unit(const Diagnosis& d) {
+  return d.accelerations_only ? "m/s^2" : "m";
+}
+//! The noise sd of the values in value_unit().
+inline double value_noise(const Diagnosis& d) {
+  return d.accelerations_only ? d.noise_acceleration : d.noise_position;
+}
 
 //! The discretisation check puts the model's own error above kEffectiveAboveNoise noise sd.
 inline bool model_error_dominates(const Diagnosis& d) {

@@ -39,6 +39,9 @@ std::vector<Signature> window_signatures(const State& s, int worst, int comp) {
   const Diagnosis& D = s.D;
   const double t_sig = events.empty() ? tb : events.back();  // signatures from here
   const double T = 2 * kPi / ctx.omega;
+  const bool acc = obs.requests[static_cast<std::size_t>(worst)].acceleration;
+  const char* unit = acc ? "m/s^2" : "m";
+  const double noise = acc ? D.noise_acceleration : D.noise_position;
   // Per window: obs - mean = alpha (sim - mean) + beta dsim/dt; shift = -beta/alpha.
   struct Win {
     double t, alpha, shift, offset;
@@ -104,9 +107,12 @@ std::vector<Signature> window_signatures(const State& s, int worst, int comp) {
     for (const Win& w : wins) mo += w.offset;
     mo /= static_cast<double>(wins.size());
     off.value = mo;
-    off.present = std::abs(mo) > 3 * D.noise_position;
-    off.detail = fmt::format("mean offset {:.3g} m after {:g} s ({:.1f} noise sd)", mo, t_sig,
-                             mo / D.noise_position);
+    off.present = !acc && std::abs(mo) > 3 * noise;
+    off.detail = fmt::format("mean offset {:.3g} {} after {:g} s ({:.1f} noise sd){}", mo, unit,
+                             t_sig, mo / noise,
+                             acc ? ": not a deformation (a mean acceleration is the sensor's bias "
+                                   "or drift), so not a signature of accelerometers"
+                                 : "");
     // Offset present from the start (load/gravity) or only after loading (permanent set).
     double early = 0;
     int ne = 0;
@@ -115,8 +121,8 @@ std::vector<Signature> window_signatures(const State& s, int worst, int comp) {
     early = ne ? early / ne : 0;
     perm.value = mo - early;
     perm.present = off.present && std::abs(early) < 0.3 * std::abs(mo) && !events.empty();
-    perm.detail =
-        fmt::format("offset {:.3g} m at the start, {:.3g} m after the load is removed", early, mo);
+    perm.detail = fmt::format(
+        "offset {0:.3g} {2} at the start, {1:.3g} {2} after the load is removed", early, mo, unit);
   }
   return {amp, freq, off, perm};
 }
@@ -141,7 +147,8 @@ Signature mode_signature(const State& s, int comp, double t_sig) {
           std::accumulate(sim.begin(), sim.end(), 0.0) / static_cast<double>(sim.size());
       for (std::size_t k = 0; k < o.size(); ++k)
         so += std::pow(o[k] - mo, 2), ss += std::pow(sim[k] - ms, 2);
-      if (ss > std::pow(5 * D.noise_position, 2) * static_cast<double>(o.size()))
+      const double noise = obs.requests[c].acceleration ? D.noise_acceleration : D.noise_position;
+      if (ss > std::pow(5 * noise, 2) * static_cast<double>(o.size()))
         ratio.push_back(std::sqrt(so / ss));
     }
     if (ratio.size() >= 3) {
