@@ -17,7 +17,7 @@ namespace gen4d::diagnose {
 Physics base_physics(const State& s, const std::vector<double>& z) {
   Physics p = s.nominal;
   p.youngs_modulus = std::exp(z[0]);
-  p.poisson_ratio = s.hold_poisson ? s.nominal.poisson_ratio : z[1];
+  p.poisson_ratio = s.opt.hold_poisson ? s.nominal.poisson_ratio : z[1];  // --hold-poisson
   apply_release(s, {}, 0, p);
   return p;
 }
@@ -58,13 +58,6 @@ std::size_t measured_series(const Observations& obs) {
   return series.size();
 }
 
-//! Whether every channel of the recording is an accelerometer.
-bool accelerometers_only(const Observations& obs) {
-  for (const ChannelRequest& r : obs.requests)
-    if (!r.acceleration) return false;
-  return !obs.requests.empty();
-}
-
 //! The start: the nominal E, or the E that moves the dominant frequency of the motion after the
 //! last load change onto the recorded one (E ~ omega^2), whichever fits better. Trajectory least
 //! squares has a local minimum per period of phase error; this start avoids them.
@@ -77,7 +70,7 @@ std::vector<double> frequency_start(State& s) {
   double w_obs = dominant_omega(obs, obs.y, t_free);
   double zf = match_frequency(s, z_start[0], w_obs, nominal_pred);
   double w_sim = dominant_omega(obs, nominal_pred.y, t_free);
-  if (accelerometers_only(obs) && nominal_pred.ok) {
+  if (s.D.accelerations_only && nominal_pred.ok) {
     // Accelerations weigh the higher modes by omega^2, so the crossings' frequency is a mix:
     // the first mode's own, by the sinusoid fit, near it.
     // The deck's first mode is searched near the recorded one (within 30 %): the crossings of
@@ -175,8 +168,8 @@ void calibrate(State& s) {
   pb.lo = {to_z(base_specs[0], base_specs[0].lo), base_specs[1].lo};
   pb.hi = {to_z(base_specs[0], base_specs[0].hi), base_specs[1].hi};
   D.one_series = measured_series(obs) < 2;
-  s.hold_poisson = D.poisson_held = s.opt.hold_poisson;
-  if (s.hold_poisson) {
+  D.poisson_held = s.opt.hold_poisson;
+  if (D.poisson_held) {
     pb.lo[1] = pb.hi[1] = nominal.poisson_ratio;  // its runs are the memo's: no cost
     log::info("nu held at the deck's {:.3g} (--hold-poisson)", nominal.poisson_ratio);
   }

@@ -175,8 +175,9 @@ void read_observations(State& s) {
             s.opt.lowpass_hz, 0.5 / span, id_column(c.kind), c.id, c.file));
     }
   const Observations& obs = s.obs;
-  D.accelerations_only = std::all_of(obs.requests.begin(), obs.requests.end(),
-                                     [](const ChannelRequest& r) { return r.acceleration; });
+  D.accelerations_only =
+      !obs.requests.empty() && std::all_of(obs.requests.begin(), obs.requests.end(),
+                                           [](const ChannelRequest& r) { return r.acceleration; });
   s.ev = std::make_unique<Evaluator>(s.comm, model, s.obs);
   long ntrain = 0;
   for (char c : obs.train) ntrain += c;

@@ -57,12 +57,10 @@ struct State {
   std::vector<ParamSpec> release_specs;
   std::vector<double> release_z;  //!< their values (z coordinates): the start, then the fit
   LsqProblem pb;                  //!< the baseline's problem: log E and nu (and the release state)
-  //! nu held at the deck's value in every fit (base_physics; DiagnoseOptions::hold_poisson).
-  bool hold_poisson = false;
-  std::vector<double> events;  //!< the deck's load changes
-  double t_free = 0;           //!< the last load change: free motion after it
-  LsqResult base;              //!< the calibrated baseline's fit
-  double chi2_0 = 0;           //!< its chi-square
+  std::vector<double> events;     //!< the deck's load changes
+  double t_free = 0;              //!< the last load change: free motion after it
+  LsqResult base;                 //!< the calibrated baseline's fit
+  double chi2_0 = 0;              //!< its chi-square
   Physics calibrated;
 
   // locate
